@@ -1,0 +1,177 @@
+"""Atmosphere media: constants, density profiles, phase functions, validation.
+
+Units are metres and 1/m. Colour triples are (red, green, blue) at 680/550/440 nm,
+the sample's wavelengths. Everything here is a pure function of AtmosphereParams.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, fields
+from typing import Tuple
+
+import numpy as np
+
+Rgb = Tuple[float, float, float]
+
+WAVELENGTHS_NM: Rgb = (680.0, 550.0, 440.0)
+# Rayleigh coefficient inputs of the sample (Preetham/Hoffman eq. for beta_R).
+AIR_REFRACTIVE_INDEX = 1.0003
+AIR_MOLECULES_PER_M3 = 2.545e25
+AIR_DEPOLARIZATION = 0.035
+# Bruneton's ozone absorption at the same wavelengths (1/m at unit density).
+OZONE_ABSORPTION: Rgb = (0.650e-6, 1.881e-6, 0.085e-6)
+OZONE_PEAK_HEIGHT_M = 25_000.0
+OZONE_HALF_WIDTH_M = 15_000.0
+
+
+def rayleigh_scattering_from_air(wavelengths_nm: Rgb = WAVELENGTHS_NM) -> Rgb:
+    """8 pi^3 (n^2-1)^2 / (3 N lambda^4) * (6+3p)/(6-7p), the sample's formula."""
+    n, big_n, p = AIR_REFRACTIVE_INDEX, AIR_MOLECULES_PER_M3, AIR_DEPOLARIZATION
+    king = (6 + 3 * p) / (6 - 7 * p)
+    return tuple(
+        8 * math.pi**3 * (n * n - 1) ** 2 / (3 * big_n * (lam * 1e-9) ** 4) * king
+        for lam in wavelengths_nm
+    )
+
+
+DEFAULT_RAYLEIGH_SCATTERING: Rgb = rayleigh_scattering_from_air()
+DEFAULT_MIE_SCATTERING: Rgb = (2e-5, 2e-5, 2e-5)
+
+
+@dataclass(frozen=True)
+class AtmosphereParams:
+    """The media of the sample (Yusov 2013), with an optional Bruneton ozone layer.
+
+    ``mie_scattering`` is the coefficient at aerosol density 1; the effective Mie
+    scattering is ``mie_scattering * aerosol_density`` and Mie extinction adds
+    ``aerosol_absorption`` times that.
+    """
+
+    earth_radius: float = 6_360_000.0
+    atmosphere_height: float = 80_000.0
+    rayleigh_scattering: Rgb = DEFAULT_RAYLEIGH_SCATTERING
+    rayleigh_scale_height: float = 7994.0
+    mie_scattering: Rgb = DEFAULT_MIE_SCATTERING
+    mie_scale_height: float = 1200.0
+    aerosol_density: float = 1.0
+    aerosol_absorption: float = 0.1
+    mie_g: float = 0.76
+    ozone: bool = False
+    ozone_absorption: Rgb = field(default=OZONE_ABSORPTION)
+
+    # -- validation -------------------------------------------------------
+    def validate(self) -> "AtmosphereParams":
+        """Raise ValueError naming the first bad field; return self when valid."""
+        positive = ("earth_radius", "atmosphere_height", "rayleigh_scale_height", "mie_scale_height")
+        non_negative = ("aerosol_density", "aerosol_absorption")
+        for name in positive:
+            _check_number(name, getattr(self, name), lower=0.0, inclusive=False)
+        for name in non_negative:
+            _check_number(name, getattr(self, name), lower=0.0, inclusive=True)
+        _check_number("mie_g", self.mie_g, lower=-0.999, upper=0.999, inclusive=True)
+        for name in ("rayleigh_scattering", "mie_scattering", "ozone_absorption"):
+            value = getattr(self, name)
+            if not isinstance(value, (tuple, list)) or len(value) != 3:
+                raise ValueError(f"{name} must be three numbers (red, green, blue), got {value!r}")
+            for channel, v in zip("rgb", value):
+                _check_number(f"{name}.{channel}", v, lower=0.0, inclusive=True)
+        if not isinstance(self.ozone, (bool, np.bool_)):
+            raise ValueError(f"ozone must be True or False, got {self.ozone!r}")
+        if self.atmosphere_height >= self.earth_radius:
+            raise ValueError("atmosphere_height must be smaller than earth_radius")
+        return self
+
+    # -- derived quantities ----------------------------------------------
+    @property
+    def top_radius(self) -> float:
+        return self.earth_radius + self.atmosphere_height
+
+    @property
+    def rayleigh(self) -> np.ndarray:
+        return np.asarray(self.rayleigh_scattering, dtype=np.float64)
+
+    @property
+    def mie(self) -> np.ndarray:
+        """Mie scattering coefficient at sea level, aerosol density applied."""
+        return np.asarray(self.mie_scattering, dtype=np.float64) * self.aerosol_density
+
+    @property
+    def mie_extinction(self) -> np.ndarray:
+        return self.mie * (1.0 + self.aerosol_absorption)
+
+    @property
+    def ozone_extinction(self) -> np.ndarray:
+        scale = 1.0 if self.ozone else 0.0
+        return np.asarray(self.ozone_absorption, dtype=np.float64) * scale
+
+    def extinction_matrix(self) -> np.ndarray:
+        """(3 media, 3 channels): optical depth = net densities (R, M, O) @ this."""
+        return np.stack([self.rayleigh, self.mie_extinction, self.ozone_extinction])
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        for k, v in d.items():
+            if isinstance(v, tuple):
+                d[k] = [float(x) for x in v]
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "AtmosphereParams":
+        known = {f.name for f in fields(cls)}
+        unknown = set(d) - known
+        if unknown:
+            raise ValueError(f"unknown atmosphere parameter(s): {', '.join(sorted(unknown))}")
+        kwargs = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
+        return cls(**kwargs)
+
+
+def _check_number(name, value, *, lower=None, upper=None, inclusive=True):
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise ValueError(f"{name} must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    if lower is not None and (value < lower or (not inclusive and value == lower)):
+        bound = ">=" if inclusive else ">"
+        raise ValueError(f"{name} must be {bound} {lower:g}, got {value!r}")
+    if upper is not None and value > upper:
+        raise ValueError(f"{name} must be <= {upper:g}, got {value!r}")
+
+
+# -- density profiles (relative to sea level, dimensionless) ---------------
+
+def rayleigh_density(params: AtmosphereParams, height_m):
+    return np.exp(-np.maximum(height_m, 0.0) / params.rayleigh_scale_height)
+
+
+def mie_density(params: AtmosphereParams, height_m):
+    return np.exp(-np.maximum(height_m, 0.0) / params.mie_scale_height)
+
+
+def ozone_density(params: AtmosphereParams, height_m):
+    """Bruneton's tent profile: 0 below 10 km and above 40 km, 1 at 25 km."""
+    tent = 1.0 - np.abs(np.asarray(height_m) - OZONE_PEAK_HEIGHT_M) / OZONE_HALF_WIDTH_M
+    return np.clip(tent, 0.0, 1.0)
+
+
+def densities(params: AtmosphereParams, height_m) -> np.ndarray:
+    """(..., 3) Rayleigh, Mie, ozone densities at the given heights."""
+    h = np.asarray(height_m)
+    return np.stack([rayleigh_density(params, h), mie_density(params, h), ozone_density(params, h)], axis=-1)
+
+
+# -- phase functions (normalised to 1 over the sphere) ----------------------
+
+RAYLEIGH_PHASE_NORM = 3.0 / (16.0 * math.pi)
+
+
+def rayleigh_phase(cos_theta):
+    c = np.asarray(cos_theta)
+    return RAYLEIGH_PHASE_NORM * (1.0 + c * c)
+
+
+def mie_phase(cos_theta, g: float):
+    """Cornette-Shanks phase function, forward peak at cos_theta = 1 for g > 0."""
+    c = np.asarray(cos_theta)
+    g2 = g * g
+    norm = 3.0 / (8.0 * math.pi) * (1.0 - g2) / (2.0 + g2)
+    return norm * (1.0 + c * c) / np.power(1.0 + g2 - 2.0 * g * c, 1.5)

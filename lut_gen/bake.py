@@ -1,0 +1,459 @@
+"""Precomputation of the scattering tables (seed 000, "Multiple Scattering").
+
+Stages, each a pure function of AtmosphereParams:
+  optical depth   net Rayleigh/Mie/ozone density from (height, cos zenith) to the top
+  single          L1, eq. (2) with the sun term, trapezoidal along the view ray
+  orders 2..N     J(n) = sphere integral of L(n-1) against the phase functions (eq. 1),
+                  L(n) = its integral along the view ray (eq. 2); summed into "higher"
+  ambient         E_sky, eq. (3), over the upper hemisphere at 20 m
+
+Two ideas keep this fast in numpy without giving up accuracy:
+
+* Product integration along view rays. The integrand of eqs. (1)-(2) is (density x view
+  transmittance), which varies fast and does not depend on the sun, times a slowly varying sun
+  factor (sun transmittance for L1, J / density for higher orders). The first is integrated
+  per ray on a fine grid into hat-function weights A_k; the second is evaluated only at a few
+  nodes k per ray and per sun configuration: L = sum_k A_k * f(node k).
+* The sphere integral of eq. (1) for fixed height and sun zenith is a convolution in azimuth
+  with the phase function, done with real FFTs over a fixed direction grid; the discrete
+  kernel is normalised so that a constant radiance integrates exactly.
+
+Higher orders are smooth, so they are computed on a grid with half the nodes along height,
+view and sun zenith and resampled onto the full grid at the end.
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Callable, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import parameterization as par
+from .atmosphere import AtmosphereParams, mie_phase, ozone_density, rayleigh_phase
+from .geometry import clustered_nodes, distance_to_sphere_exit, radius_along, ray_length
+from .interpolation import axis_weights, gather, interpolate, packed_rows, resample_matrix, resample_separable
+from .sampling import EARTH_HIT_NET_DENSITY, Luts
+
+Progress = Callable[[str, float], None]
+
+
+@dataclass(frozen=True)
+class Resolution:
+    scattering: Tuple[int, int, int, int]   # (height, view zenith, sun zenith, sun-view)
+    optical_depth: Tuple[int, int]          # (height, cos zenith)
+    ambient: int
+
+
+RESOLUTIONS = {
+    "default": Resolution((32, 128, 64, 16), (1024, 1024), 1024),
+    "draft": Resolution((16, 64, 32, 8), (512, 512), 512),
+}
+
+# Quadrature settings (named so that their effect on accuracy can be measured in one place).
+OPTICAL_DEPTH_STEPS = 48        # nodes per optical-depth ray (clustered toward low heights)
+SINGLE_NODES = 32               # sun-transmittance nodes per view ray
+SINGLE_SUBSTEPS = 8             # fine steps per node interval for density x transmittance
+NODE_UNIFORM_SHARE = 0.6        # keeps far, sunlit stretches of twilight rays sampled
+HIGHER_NODES = 12               # J nodes per view ray for orders >= 2
+HIGHER_SUBSTEPS = 6
+SPHERE_AZIMUTHS = 64            # azimuth samples of the sphere integral (full circle)
+AMBIENT_HEIGHT_M = 20.0         # the sample's camera height for eq. (3)
+AMBIENT_ZENITHS = 24
+AMBIENT_AZIMUTHS = 32           # over half a circle; the sky is symmetric about the sun plane
+MAX_ORDERS = 10
+
+
+def _parallel_rows(function, count: int, progress: Progress, stage: str):
+    """Run function(i) for i in range(count) on all cores (numpy releases the GIL in its
+    loops), reporting progress in completion order."""
+    workers = max(1, min(os.cpu_count() or 1, 8))
+    with ThreadPoolExecutor(workers) as pool:
+        for done, _ in enumerate(pool.map(function, range(count)), 1):
+            progress(stage, done / count)
+
+
+def resolve_resolution(resolution: Union[str, Sequence[int], Resolution]) -> Resolution:
+    if isinstance(resolution, Resolution):
+        return resolution
+    if isinstance(resolution, str):
+        try:
+            return RESOLUTIONS[resolution]
+        except KeyError:
+            raise ValueError(f"resolution must be one of {', '.join(RESOLUTIONS)} or 4 table sizes, "
+                             f"got {resolution!r}") from None
+    dims = tuple(resolution)
+    if len(dims) != 4 or not all(isinstance(n, (int, np.integer)) for n in dims):
+        raise ValueError(f"resolution tuple must be 4 integers (height, view, sun, sun-view), got {resolution!r}")
+    n_h, n_a, n_s, n_t = dims
+    if n_h < 2 or n_s < 2 or n_t < 2 or n_a < 4 or n_a % 2:
+        raise ValueError("resolution needs >= 2 nodes per axis and an even view axis >= 4, "
+                         f"got {resolution!r}")
+    return Resolution(tuple(int(n) for n in dims), RESOLUTIONS["default"].optical_depth,
+                      RESOLUTIONS["default"].ambient)
+
+
+def higher_order_dims(dims):
+    """Grid for orders >= 2: half the height, view and sun-zenith nodes (they are smooth)."""
+    n_h, n_a, n_s, n_t = dims
+    half_a = max(4, (n_a // 2) // 2 * 2)
+    return (max(2, (n_h + 1) // 2), half_a, max(2, (n_s + 1) // 2), n_t)
+
+
+# -- optical depth --------------------------------------------------------------
+
+def bake_optical_depth(params: AtmosphereParams, n_height: int, n_cos: int,
+                       steps: int = OPTICAL_DEPTH_STEPS, progress: Optional[Progress] = None) -> np.ndarray:
+    """(n_height, n_cos, 3) net densities to the top; EARTH_HIT_NET_DENSITY where blocked.
+    Nodes at texel centres: h = (i + 0.5) / n * H_atm, c = 2 (j + 0.5) / n - 1."""
+    heights = par.centre_nodes(n_height) * params.atmosphere_height
+    cosines = par.centre_nodes(n_cos) * 2.0 - 1.0
+    out = np.empty((n_height, n_cos, 3), dtype=np.float32)
+    rows = max(1, (1 << 19) // (n_cos * steps))
+    starts = list(range(0, n_height, rows))
+
+    def fill(chunk):
+        sl = slice(starts[chunk], starts[chunk] + rows)
+        h = heights[sl, None]
+        r = params.earth_radius + h
+        length = distance_to_sphere_exit(r, cosines[None, :], params.top_radius)
+        s = clustered_nodes(r, cosines[None, :], length, steps)
+        net = _trapezoid(_densities32(params, _height_along(params, h, r, cosines[None, :], s)), s)
+        net[cosines[None, :] < par.cos_horizon(h, params.earth_radius)] = EARTH_HIT_NET_DENSITY
+        out[sl] = net
+
+    _parallel_rows(fill, len(starts), progress or (lambda *a: None), "optical depth")
+    return out
+
+
+def _height_along(params, h, r, cos_zenith, s):
+    """Height at distance s along rays from (h, r = R + h); float32-safe form of |P| - R."""
+    h, r, c = (np.asarray(v, dtype=np.float64)[..., None] for v in (h, r, cos_zenith))
+    s = s.astype(np.float32)
+    rise = s * (s + (2.0 * r * c).astype(np.float32))
+    return h.astype(np.float32) + rise / (radius_along(r, c, s).astype(np.float32) + r.astype(np.float32))
+
+
+def _densities32(params, heights):
+    heights = np.maximum(heights.astype(np.float32), 0.0)
+    out = np.empty(heights.shape + (3,), dtype=np.float32)
+    np.exp(heights * np.float32(-1.0 / params.rayleigh_scale_height), out=out[..., 0])
+    np.exp(heights * np.float32(-1.0 / params.mie_scale_height), out=out[..., 1])
+    out[..., 2] = ozone_density(params, heights) if params.ozone else 0.0
+    return out
+
+
+def _trapezoid(values, s):
+    """Integrate (..., n, C) values over the last-but-one axis with abscissae s (..., n)."""
+    ds = np.diff(s, axis=-1)[..., None].astype(np.float32)
+    return np.sum(0.5 * (values[..., 1:, :] + values[..., :-1, :]) * ds, axis=-2)
+
+
+def transmittance_table(params: AtmosphereParams, optical_depth: np.ndarray) -> np.ndarray:
+    ext = params.extinction_matrix().astype(np.float32)
+    visible = optical_depth[..., :1] < EARTH_HIT_NET_DENSITY * 0.5
+    return np.where(visible, np.exp(-np.minimum(optical_depth @ ext, 80.0)), 0.0).astype(np.float32)
+
+
+# -- view rays: product-integration weights ------------------------------------------
+
+@dataclass
+class RayNodes:
+    """Nodes along a batch of view rays and the sun-independent hat-function weights."""
+    s: np.ndarray          # (rays, K) distance from the ray start
+    radius: np.ndarray     # (rays, K) distance to the Earth centre
+    weight_rayleigh: np.ndarray   # (rays, K, 3) integral of rho_R * T_view * hat_k ds
+    weight_mie: np.ndarray        # (rays, K, 3) same with rho_M
+
+
+def view_ray_nodes(params: AtmosphereParams, height: float, cos_view, above, n_nodes: int, substeps: int) -> RayNodes:
+    r = np.full(len(cos_view), params.earth_radius + height)
+    c = np.asarray(cos_view, dtype=np.float64)
+    length = ray_length(params, r, c, ~np.asarray(above))
+    s = clustered_nodes(r, c, length, n_nodes, NODE_UNIFORM_SHARE)           # (rays, K)
+    tau = np.linspace(0.0, 1.0, substeps + 1)
+    s_fine = s[:, :-1, None] + (s[:, 1:, None] - s[:, :-1, None]) * tau    # (rays, K-1, M+1)
+    h_fine = radius_along(r[:, None, None], c[:, None, None], s_fine) - params.earth_radius
+    dens = _densities32(params, h_fine)                                    # (rays, K-1, M+1, 3)
+    sigma = dens @ params.extinction_matrix().astype(np.float32)            # extinction per channel
+    ds = ((s[:, 1:] - s[:, :-1]) / substeps).astype(np.float32)[..., None, None]
+    # Optical depth from the ray start: trapezoid inside each interval plus earlier intervals.
+    inside = np.concatenate([np.zeros_like(sigma[:, :, :1]),
+                             np.cumsum(0.5 * (sigma[:, :, 1:] + sigma[:, :, :-1]) * ds, axis=2)], axis=2)
+    before = np.cumsum(inside[:, :, -1], axis=1) - inside[:, :, -1]
+    view_trans = np.exp(-(inside + before[:, :, None, :]))
+    trap = np.full(substeps + 1, 1.0, dtype=np.float32)
+    trap[[0, -1]] = 0.5
+    hat_right = tau.astype(np.float32)
+    weights = []
+    for medium in (0, 1):
+        g = dens[..., medium:medium + 1] * view_trans * ds * trap[None, None, :, None]
+        right = np.einsum("rkmc,m->rkc", g, hat_right)
+        left = g.sum(axis=2) - right
+        w = np.zeros((len(r), n_nodes, 3), dtype=np.float32)
+        w[:, :-1] += left
+        w[:, 1:] += right
+        weights.append(w)
+    return RayNodes(s, radius_along(r[:, None], c[:, None], s), weights[0], weights[1])
+
+
+def _node_cos_sun(r, nodes: RayNodes, cos_sun, cos_sun_view):
+    """(rays, n_s, n_t, K) cos sun zenith at every node: (r c_s + s c_t) / |P|."""
+    return ((r * cos_sun[None, :, None, None] + nodes.s[:, None, None, :] * cos_sun_view[..., None])
+            / nodes.radius[:, None, None, :]).astype(np.float32)
+
+
+def rayleigh_phase_at_nodes(params: AtmosphereParams, dims) -> np.ndarray:
+    """(n_h, n_a, n_s, n_t, 1) Rayleigh phase of each node's (clamped) sun-view angle: the
+    factor the tables are divided by (see sampling.Luts)."""
+    _, cos_view, _, cos_sun, cos_sun_view = par.grid_axes(params, dims)
+    ct = par.clamp_sun_view(cos_view[:, :, None, None], cos_sun[None, None, :, None],
+                            cos_sun_view[None, None, None, :])
+    return rayleigh_phase(ct)[..., None].astype(np.float32)
+
+
+# -- single scattering -----------------------------------------------------------------
+
+def bilinear_cells(table: np.ndarray) -> np.ndarray:
+    """(n0-1, n1-1, 4, C) coefficients (a, b, c, d) of every cell of a 2D table so that the
+    bilinear value is a + b*w1 + w0*(c + d*w1): one gather per look-up instead of four."""
+    v00, v01, v10, v11 = table[:-1, :-1], table[:-1, 1:], table[1:, :-1], table[1:, 1:]
+    return np.stack([v00, v01 - v00, v10 - v00, v11 - v10 - v01 + v00], axis=2).astype(np.float32)
+
+
+def bake_single(params: AtmosphereParams, dims, trans_table: np.ndarray, progress: Progress) -> np.ndarray:
+    """Single-scattered radiance divided by the Rayleigh phase, (n_h, n_a, n_s, n_t, 3)."""
+    n_h, n_a, n_s, n_t = dims
+    heights, cos_view, above, cos_sun, cos_sun_view = par.grid_axes(params, dims)
+    n_odh, n_odc = trans_table.shape[:2]
+    padded = np.concatenate([trans_table, np.zeros(trans_table.shape[:2] + (1,), np.float32)], axis=-1)
+    cells, width = packed_rows(bilinear_cells(padded).reshape((n_odh - 1) * (n_odc - 1), 16))
+    k_nodes = SINGLE_NODES
+    out = np.empty((n_h, n_a, n_s, n_t, 3), dtype=np.float32)
+
+    def fill(i):
+        nodes = view_ray_nodes(params, heights[i], cos_view[i], above, k_nodes, SINGLE_SUBSTEPS)
+        ct = par.clamp_sun_view(cos_view[i][:, None, None], cos_sun[None, :, None], cos_sun_view[None, None, :])
+        node_h = nodes.radius - params.earth_radius
+        ih, wh = axis_weights(par.unit_to_centre_x(node_h / params.atmosphere_height, n_odh), n_odh)
+        cos_node = _node_cos_sun(params.earth_radius + heights[i], nodes, cos_sun, ct)       # (a, s, t, K)
+        ic, wc = axis_weights(par.unit_to_centre_x(cos_node * np.float32(0.5) + np.float32(0.5), n_odc), n_odc)
+        cell = gather(cells, width, ih[:, None, None, :] * (n_odc - 1) + ic).reshape(cos_node.shape + (4, 4))
+        basis = np.empty(cos_node.shape + (4,), dtype=np.float32)    # bilinear basis 1, wc, wh, wc*wh
+        basis[..., 0] = 1.0
+        basis[..., 1] = wc
+        basis[..., 2] = wh[:, None, None, :]
+        basis[..., 3] = wc * wh[:, None, None, :]
+        sun_trans = np.einsum("astkjc,astkj->astkc", cell, basis)[..., :3]               # (a, s, t, K, 3)
+        ray_r = np.einsum("astkc,akc->astc", sun_trans, nodes.weight_rayleigh)
+        ray_m = np.einsum("astkc,akc->astc", sun_trans, nodes.weight_mie)
+        phase_ratio = (mie_phase(ct, params.mie_g) / rayleigh_phase(ct))[..., None]
+        out[i] = params.rayleigh * ray_r + params.mie * phase_ratio * ray_m
+
+    _parallel_rows(fill, n_h, progress, "single scattering")
+    return out
+
+
+# -- higher orders -----------------------------------------------------------------------
+
+def sphere_zenith_grid(atmosphere_height: float, earth_radius: float):
+    """Midpoint-rule nodes in cos zenith over [-1, 1], dense in the band where the horizon of
+    every height inside the atmosphere lies, so the radiance jump there costs little."""
+    c_low = float(par.cos_horizon(atmosphere_height, earth_radius)) - 0.05
+    edges = np.concatenate([np.linspace(-1.0, c_low, 17)[:-1], np.linspace(c_low, 0.05, 49)[:-1],
+                            np.linspace(0.05, 1.0, 25)])
+    return 0.5 * (edges[1:] + edges[:-1]), np.diff(edges)
+
+
+def phase_kernels(params: AtmosphereParams, mu, mu_weights, n_az: int):
+    """Real FFT (over the azimuth difference) of the discretised phase functions,
+    (n_az//2+1, n_mu_out, n_mu_in) for Rayleigh and Mie, rows normalised to integrate to 1."""
+    sin = np.sqrt(np.clip(1 - mu * mu, 0, 1))
+    d_az = 2 * math.pi / n_az
+    cos_az = np.cos(np.arange(n_az) * d_az)
+    cosang = mu[:, None, None] * mu[None, :, None] + sin[:, None, None] * sin[None, :, None] * cos_az
+    kernels = []
+    for phase in (rayleigh_phase(cosang), mie_phase(cosang, params.mie_g)):
+        k = phase * mu_weights[None, :, None] * d_az
+        k /= k.sum(axis=(1, 2), keepdims=True)
+        kernels.append(np.fft.rfft(k, axis=2).real.transpose(2, 0, 1).copy())
+    return kernels
+
+
+def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az):
+    """J~ for Rayleigh and Mie (phase-convolved radiance, per unit density and scattering
+    coefficient) on the order grid: (n_h, n_a, n_s, n_t, 6). ``prev_n`` is the previous order
+    divided by the Rayleigh phase, like the stored tables."""
+    n_h, n_a, n_s, n_t = dims_j
+    heights, cos_view, _, cos_sun, cos_sun_view = par.grid_axes(params, dims_j)
+    half = n_az // 2 + 1
+    az = np.arange(half) * (2 * math.pi / n_az)
+    sin_mu = np.sqrt(np.clip(1 - mu * mu, 0, 1))
+    sin_sun = np.sqrt(np.clip(1 - cos_sun * cos_sun, 0, 1))
+    # Previous-order radiance on the direction grid (exact height and sun nodes).
+    xa, _ = par.view_zenith_to_x(mu[None, :], heights[:, None], n_a, params.earth_radius)    # (h, mu)
+    ct = mu[None, :, None] * cos_sun[:, None, None] + sin_mu[None, :, None] * sin_sun[:, None, None] * np.cos(az)
+    xt = par.sun_view_to_x(ct, n_t)                                                          # (s, mu, az)
+    ia, wa = axis_weights(xa, n_a)
+    it, wt = axis_weights(xt, n_t)
+    rows = prev_n.reshape(-1, 3)
+    base_h = np.arange(n_h)[:, None, None, None] * (n_a * n_s * n_t)
+    base_s = np.arange(n_s)[None, :, None, None] * n_t
+    radiance = np.zeros((n_h, n_s, len(mu), half, 3), dtype=np.float32)
+    for da, w_a in ((0, 1 - wa), (1, wa)):
+        for dt, w_t in ((0, 1 - wt), (1, wt)):
+            idx = base_h + (ia + da)[:, None, :, None] * (n_s * n_t) + base_s + (it + dt)[None]
+            radiance += (w_a[:, None, :, None] * w_t[None])[..., None] * rows[idx]
+    radiance *= rayleigh_phase(ct).astype(np.float32)[None, ..., None]
+    full = np.concatenate([radiance, radiance[:, :, :, -2:0:-1]], axis=3)                  # mirror azimuth
+    spectrum = np.fft.rfft(full, axis=3)                                                     # (h, s, mu, m, 3)
+    spec = spectrum.transpose(3, 2, 0, 1, 4).reshape(half, len(mu), -1)                      # (m, mu, h*s*3)
+    out_dirs = []
+    for kernel in kernels:
+        conv = np.matmul(kernel, spec.real) + 1j * np.matmul(kernel, spec.imag)
+        conv = conv.reshape(half, len(mu), n_h, n_s, 3).transpose(2, 3, 1, 0, 4)          # (h, s, mu, m, 3)
+        out_dirs.append(np.fft.irfft(conv, n=n_az, axis=3)[:, :, :, :half])                  # az in [0, pi]
+    # Resample from (mu, az) to the table's (cos view zenith, cos sun-view) nodes.
+    ca = cos_view[:, :, None, None]                                                         # (h, a, 1, 1)
+    cs = cos_sun[None, None, :, None]
+    ctn = par.clamp_sun_view(ca, cs, cos_sun_view[None, None, None, :])                     # (h, a, s, t)
+    denom = np.sqrt(np.clip(1 - ca * ca, 0, 1) * np.clip(1 - cs * cs, 0, 1))
+    cos_daz = np.where(denom > 1e-9, (ctn - ca * cs) / np.maximum(denom, 1e-9), 1.0)
+    x_az = np.arccos(np.clip(cos_daz, -1, 1)) / (2 * math.pi / n_az)
+    x_mu = np.interp(cos_view, mu, np.arange(len(mu)))                                       # (h, a)
+    coords = (np.arange(n_h)[:, None, None, None], x_mu[:, :, None, None],
+              np.arange(n_s)[None, None, :, None], x_az)
+    table = np.concatenate(out_dirs, axis=-1).transpose(0, 2, 1, 3, 4)                      # (h, mu, s, az, 6)
+    return interpolate(np.ascontiguousarray(table, dtype=np.float32), coords)
+
+
+def _integrate_order(params, dims_j, j_table, progress: Progress, stage: str):
+    """L(n) on the order grid from J~ (eq. 2), product-integrated along each view ray."""
+    n_h, n_a, n_s, n_t = dims_j
+    heights, cos_view, above, cos_sun, cos_sun_view = par.grid_axes(params, dims_j)
+    out = np.empty((n_h, n_a, n_s, n_t, 3), dtype=np.float32)
+
+    def fill(i):
+        nodes = view_ray_nodes(params, heights[i], cos_view[i], above, HIGHER_NODES, HIGHER_SUBSTEPS)
+        r = params.earth_radius + heights[i]
+        node_h = nodes.radius - params.earth_radius
+        node_cos_view = (r * cos_view[i][:, None] + nodes.s) / nodes.radius
+        xh = par.height_to_x(node_h, n_h, params.atmosphere_height)
+        xa, _ = par.view_zenith_to_x(node_cos_view, node_h, n_a, params.earth_radius,
+                                     above_horizon=np.broadcast_to(above[:, None], node_h.shape))
+        ih, wh = axis_weights(xh, n_h)
+        ia, wa = axis_weights(xa, n_a)
+        # Slab of J~ at each node's (height, view zenith), sun-view major: (a, K, t, s, 6).
+        slab = sum((w_h * w_a)[..., None, None, None] * j_table[ih + dh, ia + da].transpose(0, 1, 3, 2, 4)
+                   for dh, w_h in ((0, 1 - wh), (1, wh)) for da, w_a in ((0, 1 - wa), (1, wa)))
+        ct = par.clamp_sun_view(cos_view[i][:, None, None], cos_sun[None, :, None], cos_sun_view[None, None, :])
+        cos_node = _node_cos_sun(r, nodes, cos_sun, ct)                                      # (a, s, t, K)
+        i_s, w_s = axis_weights(par.sun_zenith_to_x(cos_node, n_s), n_s)
+        flat = slab.reshape(-1, 6)
+        base = ((np.arange(n_a)[:, None, None, None] * HIGHER_NODES + np.arange(HIGHER_NODES)) * n_t
+                + np.arange(n_t)[None, None, :, None]) * n_s                                  # (a, 1, t, K)
+        lo = flat[base + i_s]
+        j_nodes = lo + (flat[base + i_s + 1] - lo) * w_s[..., None]                          # (a, s, t, K, 6)
+        ray_r = np.einsum("astkc,akc->astc", j_nodes[..., :3], nodes.weight_rayleigh)
+        ray_m = np.einsum("astkc,akc->astc", j_nodes[..., 3:], nodes.weight_mie)
+        out[i] = (params.rayleigh * ray_r + params.mie * ray_m) / rayleigh_phase(ct)[..., None]
+
+    _parallel_rows(fill, n_h, progress, stage)
+    return out
+
+
+def grid_to_grid_matrices(params, src_dims, dst_dims):
+    """Separable linear resampling matrices from one table grid to another (same
+    parameterisation, so each destination node has a fixed coordinate on each source axis)."""
+    mats = []
+    for axis, (n_src, n_dst) in enumerate(zip(src_dims, dst_dims)):
+        if axis == 1:
+            half_src, half_dst = n_src // 2, n_dst // 2
+            j = np.arange(n_dst)
+            t = np.where(j >= half_dst, (j - half_dst) / (half_dst - 1), j / (half_dst - 1))
+            x = np.where(j >= half_dst, half_src + t * (half_src - 1), t * (half_src - 1))
+        else:
+            x = np.arange(n_dst) / (n_dst - 1) * (n_src - 1)
+        mats.append(None if n_src == n_dst else resample_matrix(x, n_src))
+    return mats
+
+
+def bake_higher_orders(params: AtmosphereParams, dims, single_n: np.ndarray, orders: int,
+                       progress: Progress) -> Tuple[np.ndarray, list]:
+    """Sum of orders 2..N, divided by the Rayleigh phase like ``single_n``; per-order timings."""
+    dims_j = higher_order_dims(dims)
+    prev = resample_separable(single_n, grid_to_grid_matrices(params, dims, dims_j) + [None])
+    mu, mu_w = sphere_zenith_grid(params.atmosphere_height, params.earth_radius)
+    kernels = phase_kernels(params, mu, mu_w, SPHERE_AZIMUTHS)
+    total = np.zeros_like(prev)
+    timings = []
+    for order in range(2, orders + 1):
+        t0 = time.perf_counter()
+        j_table = _scattered_radiance(params, dims_j, prev, mu, kernels, SPHERE_AZIMUTHS)
+        prev = _integrate_order(params, dims_j, j_table, progress, f"scattering order {order}")
+        total += prev
+        timings.append((f"order {order}", time.perf_counter() - t0))
+    higher = resample_separable(total, grid_to_grid_matrices(params, dims_j, dims) + [None])
+    return np.maximum(higher, 0.0), timings
+
+
+# -- ambient skylight ----------------------------------------------------------------------
+
+def bake_ambient(luts: Luts, n: int) -> np.ndarray:
+    """E_sky(c_s) = integral over the upper hemisphere of L_M(20 m, w, l) (w . N) dw."""
+    mu, mu_w = np.polynomial.legendre.leggauss(AMBIENT_ZENITHS)
+    mu, mu_w = 0.5 * (mu + 1), 0.5 * mu_w
+    az = (np.arange(AMBIENT_AZIMUTHS) + 0.5) * math.pi / AMBIENT_AZIMUTHS
+    az_w = 2 * math.pi / AMBIENT_AZIMUTHS            # half circle, counted twice
+    cos_sun = par.centre_nodes(n) * 2 - 1
+    sin_sun = np.sqrt(1 - cos_sun ** 2)
+    ca = mu[None, :, None]
+    ct = ca * cos_sun[:, None, None] + np.sqrt(1 - ca ** 2) * sin_sun[:, None, None] * np.cos(az)
+    radiance = luts.sky_radiance(AMBIENT_HEIGHT_M, ca, cos_sun[:, None, None], ct)          # (n, mu, az, 3)
+    return np.einsum("nmac,m->nc", radiance, mu * mu_w * az_w).astype(np.float32)
+
+
+# -- driver --------------------------------------------------------------------------------
+
+def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", orders: int = 4,
+         progress: Optional[Progress] = None) -> Luts:
+    """Bake every table for ``params`` (default: the sample's media).
+
+    ``resolution``: "default" (32 x 128 x 64 x 16), "draft" (half every dimension) or a tuple of
+    the four 4D sizes. ``orders``: scattering orders summed into the multiple table (>= 1).
+    ``progress(stage, fraction)`` is called as stages advance.
+    """
+    params = (params or AtmosphereParams()).validate()
+    res = resolve_resolution(resolution)
+    if isinstance(orders, bool) or not isinstance(orders, (int, np.integer)) or not 1 <= orders <= MAX_ORDERS:
+        raise ValueError(f"orders must be an integer from 1 to {MAX_ORDERS}, got {orders!r}")
+    report = progress or (lambda stage, fraction: None)
+    timings = {}
+
+    t0 = time.perf_counter()
+    optical_depth = bake_optical_depth(params, *res.optical_depth, progress=report)
+    trans = transmittance_table(params, optical_depth)
+    timings["optical depth"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    single = bake_single(params, res.scattering, trans, report)
+    timings["single scattering"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    if orders >= 2:
+        higher, order_times = bake_higher_orders(params, res.scattering, single, orders, report)
+        timings.update(order_times)
+    else:
+        higher = np.zeros_like(single)
+    timings["higher orders (total)"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    luts = Luts(params, single, higher, optical_depth, np.zeros((res.ambient, 3), np.float32),
+                orders=int(orders), timings=timings)
+    luts.ambient = bake_ambient(luts, res.ambient)
+    timings["ambient skylight"] = time.perf_counter() - t0
+    report("ambient skylight", 1.0)
+    return luts

@@ -1,0 +1,38 @@
+"""Bakes cached on disk by their bake key: equal inputs are baked once."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Optional
+
+from .atmosphere import AtmosphereParams
+from .bake import Progress, bake, resolve_resolution
+from .exr_io import bake_key, load, read_key, save
+from .sampling import Luts
+
+
+def default_cache_root() -> Path:
+    """$OLS_CACHE_DIR, else $XDG_CACHE_HOME/outdoor_light_scattering, else ~/.cache/..."""
+    if os.environ.get("OLS_CACHE_DIR"):
+        return Path(os.environ["OLS_CACHE_DIR"])
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    return base / "outdoor_light_scattering"
+
+
+def key_for(params: AtmosphereParams, resolution="default", orders: int = 4) -> str:
+    res = resolve_resolution(resolution)
+    return bake_key(params.validate(), res.scattering, res.optical_depth, res.ambient, orders)
+
+
+def cached_bake(params: Optional[AtmosphereParams] = None, *, resolution="default", orders: int = 4,
+                directory=None, progress: Optional[Progress] = None):
+    """(luts, directory, hit): load the bake for these inputs from ``directory`` (default: a
+    folder named by the bake key under the cache root) or bake and save it there."""
+    params = (params or AtmosphereParams()).validate()
+    key = key_for(params, resolution, orders)
+    directory = Path(directory) if directory else default_cache_root() / key
+    if read_key(directory) == key:
+        return load(directory), directory, True
+    luts = bake(params, resolution=resolution, orders=orders, progress=progress)
+    save(luts, directory)
+    return luts, directory, False

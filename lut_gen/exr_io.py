@@ -1,0 +1,214 @@
+"""EXR files of a bake: one file per table, the header carrying params, layout and hashes.
+
+Files (all RGB 32-bit float, rows stored top to bottom as EXR does; the arrays here are
+flipped so that row 0 is the bottom row, as Blender's image.pixels has it):
+
+    single_scattering.exr        4D atlas (see atlas.py), radiance / Rayleigh phase
+    higher_order_scattering.exr  4D atlas, orders 2..N
+    multiple_scattering.exr      4D atlas, single + higher
+    optical_depth.exr            (height x cos zenith): R, G, B = Rayleigh, Mie, ozone net density (m)
+    ambient_skylight.exr         1 row: irradiance per unit sun against cos sun zenith
+
+Writes are atomic per file (temporary name + rename) and a directory that holds a different
+bake is never overwritten unless asked. Every read checks format, layout version, that all
+files come from the same bake, and the pixel hash.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from . import atlas
+from .atmosphere import AtmosphereParams
+from .sampling import Luts
+
+# Bump when the meaning or packing of the stored data changes; old caches then read as stale.
+LAYOUT_VERSION = 1
+# Bump when the baker's numerics change (the same params then give different tables).
+BAKER_VERSION = 1
+
+FILES = {
+    "single": "single_scattering.exr",
+    "higher": "higher_order_scattering.exr",
+    "multiple": "multiple_scattering.exr",
+    "optical_depth": "optical_depth.exr",
+    "ambient": "ambient_skylight.exr",
+}
+PREFIX = "ols."
+
+
+class LutError(Exception):
+    """A bake directory or file that cannot be used, with a message that says why and what to do."""
+
+
+def bake_key(params: AtmosphereParams, dims, optical_depth_dims, ambient_size: int, orders: int) -> str:
+    """Hash of everything that determines a bake's content: the cache key."""
+    doc = {"layout": LAYOUT_VERSION, "baker": BAKER_VERSION, "params": params.to_dict(),
+           "dims": list(dims), "optical_depth": list(optical_depth_dims), "ambient": ambient_size,
+           "orders": orders}
+    return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:32]
+
+
+def luts_key(luts: Luts) -> str:
+    return bake_key(luts.params, luts.dims, luts.optical_depth.shape[:2], luts.ambient.shape[0], luts.orders)
+
+
+def _require_openexr():
+    try:
+        import OpenEXR
+    except ImportError as exc:  # Blender's Python has no OpenEXR; the add-on loads images itself
+        raise LutError("the OpenEXR package is missing: pip install OpenEXR (scripts/bootstrap.sh does)") from exc
+    return OpenEXR
+
+
+def _images(luts: Luts) -> dict:
+    return {
+        "single": atlas.pack(luts.single),
+        "higher": atlas.pack(luts.higher),
+        "multiple": atlas.pack(luts.multiple),
+        "optical_depth": np.ascontiguousarray(luts.optical_depth.transpose(1, 0, 2)),  # x = height
+        "ambient": luts.ambient[None, :, :],
+    }
+
+
+def _content_hash(image: np.ndarray) -> str:
+    return hashlib.sha256(np.ascontiguousarray(image, dtype=np.float32).tobytes()).hexdigest()[:32]
+
+
+def read_key(directory) -> Optional[str]:
+    """Bake key of the bake stored in ``directory``, None when it holds none (no multiple file)."""
+    path = Path(directory) / FILES["multiple"]
+    if not path.exists():
+        return None
+    return _read_header(path).get(PREFIX + "bake_key")
+
+
+def save(luts: Luts, directory, *, overwrite: bool = False) -> Path:
+    """Write every table of ``luts`` to ``directory`` (created if missing)."""
+    OpenEXR = _require_openexr()
+    directory = Path(directory)
+    key = luts_key(luts)
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise LutError(f"cannot create output directory {directory}: {exc.strerror}") from exc
+    if not os.access(directory, os.W_OK | os.X_OK):
+        raise LutError(f"output directory {directory} is not writable; choose another with --out")
+    existing = _existing_key(directory)
+    if existing not in (None, key) and not overwrite:
+        raise LutError(f"{directory} holds a different bake ({existing}); choose another directory "
+                       "or pass --overwrite to replace it")
+    common = {
+        PREFIX + "layout_version": str(LAYOUT_VERSION),
+        PREFIX + "baker_version": str(BAKER_VERSION),
+        PREFIX + "bake_key": key,
+        PREFIX + "params": json.dumps(luts.params.to_dict(), sort_keys=True),
+        PREFIX + "dims": json.dumps(list(luts.dims)),
+        PREFIX + "orders": str(luts.orders),
+        PREFIX + "storage": "scattering tables hold radiance per unit sun divided by the Rayleigh phase",
+    }
+    staged = []
+    try:
+        for name, image in _images(luts).items():
+            header = dict(common)
+            header.update({PREFIX + "table": name, PREFIX + "content_sha256": _content_hash(image),
+                           PREFIX + "shape": json.dumps(list(image.shape)),
+                           "compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage})
+            fd, tmp = tempfile.mkstemp(prefix=f".{FILES[name]}.", suffix=".tmp", dir=directory)
+            os.close(fd)
+            staged.append((tmp, directory / FILES[name]))
+            with OpenEXR.File(header, {"RGB": np.ascontiguousarray(image[::-1], dtype=np.float32)}) as exr:
+                exr.write(tmp)
+            os.chmod(tmp, 0o666 & ~_umask())
+        for tmp, final in staged:
+            os.replace(tmp, final)
+    except OSError as exc:
+        raise LutError(f"cannot write tables to {directory}: {exc}") from exc
+    finally:
+        for tmp, _ in staged:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+    return directory
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _existing_key(directory: Path):
+    try:
+        return read_key(directory)
+    except LutError:
+        return "unreadable files"
+
+
+def _read_header(path: Path) -> dict:
+    OpenEXR = _require_openexr()
+    try:
+        with OpenEXR.File(str(path), header_only=True) as exr:
+            return dict(exr.header())
+    except Exception as exc:
+        raise LutError(f"{path} is not a readable EXR file ({exc}); re-bake with python -m lut_gen bake") from exc
+
+
+def _read_image(path: Path):
+    OpenEXR = _require_openexr()
+    if not path.exists():
+        raise LutError(f"{path} is missing; re-bake with python -m lut_gen bake --out {path.parent}")
+    try:
+        with OpenEXR.File(str(path)) as exr:
+            header = dict(exr.header())
+            channels = exr.channels()
+            pixels = channels["RGB"].pixels if "RGB" in channels else None
+    except Exception as exc:
+        raise LutError(f"{path} is corrupt or truncated ({exc}); re-bake with python -m lut_gen bake") from exc
+    if pixels is None:
+        raise LutError(f"{path} has no RGB channels; it was not written by lut_gen")
+    return header, np.asarray(pixels, dtype=np.float32)[::-1]
+
+
+def load(directory, *, params: Optional[AtmosphereParams] = None) -> Luts:
+    """Read a bake written by ``save``. ``params``: fail unless the bake was made with them."""
+    directory = Path(directory)
+    if not directory.is_dir():
+        raise LutError(f"{directory} is not a directory of baked tables; bake one with python -m lut_gen bake --out {directory}")
+    images, headers = {}, {}
+    for name, filename in FILES.items():
+        headers[name], images[name] = _read_image(directory / filename)
+    first = headers["multiple"]
+    version = first.get(PREFIX + "layout_version")
+    if version != str(LAYOUT_VERSION):
+        raise LutError(f"{directory} has layout version {version}, this lut_gen reads {LAYOUT_VERSION}; re-bake it")
+    keys = {name: h.get(PREFIX + "bake_key") for name, h in headers.items()}
+    if len(set(keys.values())) != 1:
+        raise LutError(f"{directory} mixes files of different bakes ({keys}); re-bake it")
+    for name, image in images.items():
+        if headers[name].get(PREFIX + "content_sha256") != _content_hash(image):
+            raise LutError(f"{directory / FILES[name]} does not match its content hash (damaged file); re-bake it")
+    try:
+        stored = AtmosphereParams.from_dict(json.loads(first[PREFIX + "params"])).validate()
+        dims = tuple(json.loads(first[PREFIX + "dims"]))
+        orders = int(first[PREFIX + "orders"])
+        luts = Luts(params=stored,
+                    single=atlas.unpack(images["single"], dims),
+                    higher=atlas.unpack(images["higher"], dims),
+                    multiple=atlas.unpack(images["multiple"], dims),
+                    optical_depth=np.ascontiguousarray(images["optical_depth"].transpose(1, 0, 2)),
+                    ambient=np.ascontiguousarray(images["ambient"][0]),
+                    orders=orders)
+    except (KeyError, ValueError, TypeError) as exc:
+        raise LutError(f"{directory} has an invalid header ({exc}); re-bake it") from exc
+    if luts_key(luts) != keys["multiple"]:
+        raise LutError(f"{directory}: header does not match the stored tables; re-bake it")
+    if params is not None and params.validate() != stored:
+        diff = [k for k, v in params.to_dict().items() if stored.to_dict().get(k) != v]
+        raise LutError(f"{directory} was baked with other atmosphere parameters ({', '.join(diff)} differ)")
+    return luts

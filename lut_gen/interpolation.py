@@ -1,0 +1,85 @@
+"""Multilinear interpolation on regular grids in texel-index coordinates.
+
+The same arithmetic as linear texture filtering with clamp-to-edge: a coordinate x on an axis
+with N nodes blends nodes i0 = floor(x) and i0 + 1 with weight x - i0, after clamping x to
+[0, N-1]. Tables carry channels in their last axis.
+"""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+
+def axis_weights(x, n: int):
+    """Lower node index and the weight of the upper node for coordinates x on an n-node axis."""
+    x = np.asarray(x)
+    x = np.clip(x if x.dtype == np.float32 else x.astype(np.float64), 0, n - 1)
+    if n == 1:
+        return np.zeros(x.shape, dtype=np.int64), np.zeros(x.shape, dtype=np.float32)
+    i0 = np.minimum(x.astype(np.int64), n - 2)      # x >= 0, so truncation is floor
+    return i0, (x - i0).astype(np.float32)
+
+
+def packed_rows(table: np.ndarray):
+    """View a (N, C) float32 table as one 16/32/64-byte item per row: numpy gathers such items
+    ~7x faster than (N, C) rows. Returns (packed 1D array, padded channel count)."""
+    rows = np.asarray(table, dtype=np.float32).reshape(-1, table.shape[-1])
+    width = 4 if rows.shape[1] <= 4 else 8 if rows.shape[1] <= 8 else 16
+    if rows.shape[1] != width:
+        rows = np.concatenate([rows, np.zeros((rows.shape[0], width - rows.shape[1]), np.float32)], axis=1)
+    rows = np.ascontiguousarray(rows)
+    return rows.view(np.complex128 if width == 4 else f"V{4 * width}").reshape(-1), width
+
+
+def gather(packed: np.ndarray, width: int, index: np.ndarray) -> np.ndarray:
+    """Rows of a packed table at integer ``index`` (any shape) as (*index.shape, width) float32."""
+    return np.take(packed, index).view(np.float32).reshape(index.shape + (width,))
+
+
+def interpolate(table: np.ndarray, coords, chunk: int = 1 << 20) -> np.ndarray:
+    """Linear interpolation of ``table`` (*axes, C) at texel coordinates ``coords`` (one array per
+    axis, broadcast together). Returns (*broadcast shape, C) float32."""
+    axes = table.shape[:-1]
+    if len(coords) != len(axes):
+        raise ValueError(f"{len(axes)}D table needs {len(axes)} coordinates, got {len(coords)}")
+    coords = np.broadcast_arrays(*[np.asarray(c, dtype=np.float64) for c in coords])
+    shape = coords[0].shape
+    flat_coords = [c.reshape(-1) for c in coords]
+    channels = table.shape[-1]
+    packed, width = packed_rows(table)
+    strides = np.cumprod((1,) + axes[::-1])[:-1][::-1]
+    out = np.empty((flat_coords[0].size, table.shape[-1]), dtype=np.float32)
+    for start in range(0, out.shape[0], chunk):
+        sl = slice(start, start + chunk)
+        lows, weights = zip(*(axis_weights(c[sl], n) for c, n in zip(flat_coords, axes)))
+        acc = np.zeros((lows[0].size, table.shape[-1]), dtype=np.float32)
+        for corner in itertools.product((0, 1), repeat=len(axes)):
+            index = np.zeros(lows[0].size, dtype=np.int64)
+            weight = np.ones(lows[0].size, dtype=np.float32)
+            for bit, low, w, stride, n in zip(corner, lows, weights, strides, axes):
+                index += np.minimum(low + bit, n - 1) * stride
+                weight *= w if bit else 1.0 - w
+            acc += weight[:, None] * gather(packed, width, index)[:, :channels]
+        out[sl] = acc
+    return out.reshape(shape + (table.shape[-1],))
+
+
+def resample_matrix(x, n: int) -> np.ndarray:
+    """(len(x), n) matrix that linearly interpolates an n-node axis at coordinates x."""
+    i0, w = axis_weights(x, n)
+    m = np.zeros((len(i0), n), dtype=np.float64)
+    rows = np.arange(len(i0))
+    m[rows, i0] += 1.0 - w
+    m[rows, np.minimum(i0 + 1, n - 1)] += w
+    return m
+
+
+def resample_separable(table: np.ndarray, matrices) -> np.ndarray:
+    """Apply one resample matrix per axis (None keeps an axis) to a (*axes, C) table."""
+    out = np.asarray(table, dtype=np.float64)
+    for axis, m in enumerate(matrices):
+        if m is None:
+            continue
+        out = np.moveaxis(np.tensordot(m, out, axes=([1], [axis])), 0, axis)
+    return out.astype(np.float32)

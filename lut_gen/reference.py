@@ -1,0 +1,436 @@
+"""Brute-force reference integrators: the "truth" the precomputed tables are checked against.
+
+Nothing here reads a table or interpolates precomputed data. Every quantity is integrated
+numerically along straight rays through the spherical atmosphere of ``AtmosphereParams``:
+
+* ``net_density_to_top``: integrated Rayleigh / Mie / ozone densities to the top.
+* ``transmittance_to_top``: ``exp(-net @ extinction_matrix)``.
+* ``single_scattering``: single-scattered radiance per unit extraterrestrial sun,
+  phase functions included, with the sun's optical depth at every view sample integrated
+  numerically as well (a ray per sample, not an analytic approximation).
+
+This module is deliberately self-contained (it does not share geometry code with the baker)
+so that it stays an independent check. Everything is float64 numpy, broadcast over the
+inputs and processed in chunks to bound memory.
+
+Sampling scheme
+---------------
+Rayleigh and Mie densities (and the single-scattering integrand) along a ray [0, D]: the ray
+is cut into panels at its lowest point (the start for upward rays, the end for rays that
+reach the ground, the tangent point for rays that pass it), where the density peaks, and,
+for view rays, where the ray crosses the boundary of the Earth's shadow (the sun
+transmittance jumps there). Nodes are uniform in u in [0, 1]; panels get a share of them
+proportional to the cube root of their length (equal node spacing next to a shared
+breakpoint, which is snapped onto a node), and each panel is mapped with smootherstep,
+``s = b0 + (b1 - b0) g(w)``, ``g' = 30 w^2 (1 - w)^2``. Integrals are the trapezoid rule in u
+of the integrand times the exact Jacobian ``ds/du``. The map clusters nodes at the lowest
+point (g ~ 10 w^3: scale heights of ~1 km are resolved on rays over 1000 km long) and makes
+the Jacobian vanish with its first derivative at every panel end, so the Euler-Maclaurin
+endpoint terms vanish and the error is O(du^4) for smooth integrands.
+
+The view ray's optical depth from its start to each node uses a 4th-order cumulative rule
+(cubic through the 4 nearest nodes per interval), since inside the ray the Jacobian does not
+vanish and a cumulative trapezoid would be only O(du^2).
+
+Ozone (a tent in height, with kinks at 10, 25 and 40 km) is integrated separately with
+Gauss-Legendre quadrature on panels cut at every crossing of a kink height, so it is smooth
+on each panel; the view ray's ozone depth to a node is the line integral from the start minus
+the line integral from the node (same direction, both to the top sphere, through the Earth if
+need be, where the tent is 0).
+
+Measured (float64, default steps, Yusov parameters): net densities change by < 1e-5
+relative between 64 and 8192 steps; single scattering at (256, 64) steps is within ~1e-5
+of (2048, 256) on random and twilight / grazing rays.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .atmosphere import (
+    OZONE_HALF_WIDTH_M,
+    OZONE_PEAK_HEIGHT_M,
+    AtmosphereParams,
+    mie_density,
+    mie_phase,
+    rayleigh_density,
+    rayleigh_phase,
+)
+
+__all__ = ["net_density_to_top", "transmittance_to_top", "single_scattering", "HIT_EARTH_NET_DENSITY"]
+
+# Returned for every medium when a ray towards the top runs into the Earth.
+HIT_EARTH_NET_DENSITY = 1e20
+# Budget of float64 elements per work array (bounds memory; ~16 MB per array).
+_CHUNK_ELEMENTS = 1 << 21
+# Minimum Gauss-Legendre nodes per ozone panel.
+OZONE_MIN_NODES = 4
+
+
+# -- geometry ----------------------------------------------------------------------------------
+
+def _clamp_height(params: AtmosphereParams, height_m) -> np.ndarray:
+    return np.clip(np.asarray(height_m, dtype=np.float64), 0.0, params.atmosphere_height)
+
+
+def _horizon_cos(params: AtmosphereParams, r) -> np.ndarray:
+    """Cosine of the zenith angle of the geometric horizon seen from radius r >= R."""
+    q = params.earth_radius / r
+    return -np.sqrt(np.maximum(1.0 - q * q, 0.0))
+
+
+def _hits_earth(params: AtmosphereParams, r, mu) -> np.ndarray:
+    """True where the ray from radius r with zenith cosine mu meets the Earth sphere in front
+    (tangent rays do not count as hits)."""
+    return mu < _horizon_cos(params, r)
+
+
+def _distance_to_top(params: AtmosphereParams, r, mu) -> np.ndarray:
+    rt = params.top_radius
+    disc = r * r * (mu * mu - 1.0) + rt * rt
+    return np.maximum(-r * mu + np.sqrt(np.maximum(disc, 0.0)), 0.0)
+
+
+def _distance_to_ground(params: AtmosphereParams, r, mu) -> np.ndarray:
+    """Distance to the first hit of the Earth sphere (only meaningful where it is hit)."""
+    re = params.earth_radius
+    disc = r * r * (mu * mu - 1.0) + re * re
+    return np.maximum(-r * mu - np.sqrt(np.maximum(disc, 0.0)), 0.0)
+
+
+def _side_map(w):
+    """Map of a panel: w in [0, 1] -> fraction of the panel's length, and its derivative.
+    Smootherstep, g' = 30 w^2 (1 - w)^2: nodes cluster at both ends (g ~ 10 w^3) and the
+    integrand times the Jacobian vanishes with its first derivative there, so the trapezoid
+    rule's Euler-Maclaurin endpoint terms vanish up to O(du^4)."""
+    w2 = w * w
+    return w2 * w * (10.0 + w * (-15.0 + 6.0 * w)), 30.0 * w2 * (1.0 - w) ** 2
+
+
+def _split_rows(k0, n: int):
+    """Per split node index k0 (m,) the node coefficients (m, n+1) of the map:
+
+    s = s_split + A * len_before + B * len_after, ds/du = JA * len_before + JB * len_after.
+    """
+    k = np.arange(n + 1, dtype=np.float64)[None, :]
+    k0 = k0.astype(np.float64)[:, None]
+    before = k <= k0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        wa = np.where(before & (k0 > 0), (k0 - k) / k0, 0.0)
+        wb = np.where(~before & (k0 < n), (k - k0) / (n - k0), 0.0)
+        ga, dga = _side_map(wa)
+        gb, dgb = _side_map(wb)
+        ja = np.where(before & (k0 > 0), dga * n / k0, 0.0)
+        jb = np.where(~before & (k0 < n), dgb * n / (n - k0), 0.0)
+    return np.where(before, -ga, 0.0), np.where(before, 0.0, gb), ja, jb
+
+
+def _ray_nodes(r, mu, length, n: int):
+    """Clustered nodes on rays [0, length] (arrays of shape (N,)): the fast path of
+    ``_panel_nodes`` for breakpoints (0, lowest point, length), used for the sun rays.
+
+    Returns ``s`` (N, n+1) distances, ``jac`` (N, n+1) = ds/du and ``du`` = 1/n, so that
+    ``integral f ds ~= trapezoid(f * jac) * du``. The ray is split at its lowest point
+    (clamped into the ray) and the split is snapped onto node ``k0``, chosen so that the node
+    spacing next to the split is the same on both sides.
+    """
+    n = int(n)
+    if n < 2:
+        raise ValueError(f"steps must be >= 2, got {n}")
+    length = np.maximum(length, 0.0)
+    s_low = np.minimum(np.maximum(-r * mu, 0.0), length)
+    a = np.cbrt(s_low)
+    b = np.cbrt(length - s_low)
+    tot = a + b
+    frac = np.divide(a, tot, out=np.zeros_like(tot), where=tot > 0.0)
+    k0 = np.rint(frac * n).astype(np.int64)
+    # A side that rounds to no interval is negligibly short (< (0.5/n)^3 of the other side's
+    # length): the split moves to the ray's end and the other side covers the whole ray.
+    s_split = np.where(k0 <= 0, 0.0, np.where(k0 >= n, length, s_low))
+    len_a = s_split[:, None]
+    len_b = (length - s_split)[:, None]
+    uniq, inv = np.unique(k0, return_inverse=True)
+    ca, cb, ja, jb = _split_rows(uniq, n)
+    s = s_split[:, None] + ca[inv] * len_a + cb[inv] * len_b
+    jac = ja[inv] * len_a + jb[inv] * len_b
+    return s, jac, 1.0 / n
+
+
+def _panel_nodes(breaks, n: int):
+    """Nodes on rays cut into panels at sorted breakpoints ``breaks`` (N, m+1), from 0 to the
+    ray's length. Same map as ``_ray_nodes`` (smootherstep on every panel) with the nodes
+    shared out in proportion to the cube root of the panel lengths; every breakpoint that
+    keeps a panel of its own lands on a node. Returns ``s``, ``jac``, ``du`` like ``_ray_nodes``.
+    """
+    n = int(n)
+    if n < 2:
+        raise ValueError(f"steps must be >= 2, got {n}")
+    m = breaks.shape[-1] - 1
+    weights = np.cbrt(np.maximum(np.diff(breaks, axis=-1), 0.0))
+    cum = np.concatenate([np.zeros_like(breaks[:, :1]), np.cumsum(weights, axis=-1)], axis=-1)
+    total = cum[:, -1:]
+    frac = np.divide(cum, total, out=np.zeros_like(cum), where=total > 0.0)
+    frac[:, -1] = 1.0
+    knode = np.rint(frac * n)  # (N, m+1), knode[:, 0] = 0, knode[:, -1] = n
+    j = np.arange(n + 1, dtype=np.float64)
+    panel = (knode[:, None, 1:m] <= j[None, :, None]).sum(axis=-1)  # (N, n+1)
+    k_lo = np.take_along_axis(knode, panel, axis=-1)
+    k_hi = np.take_along_axis(knode, panel + 1, axis=-1)
+    b_lo = np.take_along_axis(breaks, panel, axis=-1)
+    b_hi = np.take_along_axis(breaks, panel + 1, axis=-1)
+    width = k_hi - k_lo
+    has = width > 0
+    w = np.where(has, (j[None, :] - k_lo) / np.where(has, width, 1.0), 0.0)
+    g, dg = _side_map(w)
+    s = b_lo + (b_hi - b_lo) * g
+    jac = np.where(has, (b_hi - b_lo) * dg * n / np.where(has, width, 1.0), 0.0)
+    return s, jac, 1.0 / n
+
+
+def _shadow_crossings(params: AtmosphereParams, r, mu_v, mu_s, nu, length):
+    """(N, 2) distances along the view rays where they cross the boundary of the Earth's shadow
+    (the cylinder of radius R behind the Earth along the sun direction), clamped into
+    [0, length]; rays without a crossing get 0. The sun transmittance jumps there."""
+    a = 1.0 - nu * nu
+    b = r * (mu_v - mu_s * nu)
+    c = r * r * (1.0 - mu_s * mu_s) - params.earth_radius ** 2
+    disc = b * b - a * c
+    ok = (a > 1e-12) & (disc > 0.0)
+    root = np.sqrt(np.maximum(disc, 0.0))
+    out = []
+    for sign in (-1.0, 1.0):
+        x = np.divide(-b + sign * root, a, out=np.zeros_like(a), where=ok)
+        behind = r * mu_s + x * nu < 0.0  # on the anti-sun side of the Earth's centre
+        valid = ok & behind & (x > 0.0) & (x < length)
+        out.append(np.where(valid, x, 0.0))
+    return np.stack(out, axis=-1)
+
+
+def _radius_along(r, mu, s):
+    """Radius at distance s (N, k...) along rays from radius r with zenith cosine mu (N,)."""
+    extra = (1,) * (s.ndim - 1)
+    r_ = r.reshape(r.shape + extra)
+    b = (r * mu).reshape(r.shape + extra)
+    return np.sqrt(np.maximum(r_ * r_ + s * (s + 2.0 * b), 0.0))
+
+
+def _trapezoid_weights(n: int, du: float) -> np.ndarray:
+    w = np.full(int(n) + 1, du)
+    w[0] = w[-1] = 0.5 * du
+    return w
+
+
+def _trapezoid(f, du):
+    """Trapezoid rule over the node axis (axis=-2 for (..., nodes, 3), i.e. f has a media axis)."""
+    return du * (f.sum(axis=-2) - 0.5 * (f[..., 0, :] + f[..., -1, :]))
+
+
+def _cumulative_integral(f, du):
+    """Cumulative integral along axis -2 (nodes), 0 on the first node, 4th order: every
+    interval integrates the cubic through its 4 nearest nodes,
+    du/24 * (-f[i-1] + 13 f[i] + 13 f[i+1] - f[i+2]), one-sided on the first and last interval.
+    (A cumulative trapezoid would leave an O(du^2) error inside the ray, where the Jacobian
+    does not vanish.) Needs at least 4 nodes."""
+    if f.shape[-2] < 4:
+        raise ValueError("need at least 3 steps")
+    c = du / 24.0
+    inc = np.empty(f.shape[:-2] + (f.shape[-2] - 1,) + f.shape[-1:])
+    inc[..., 1:-1, :] = c * (13.0 * (f[..., 1:-2, :] + f[..., 2:-1, :]) - f[..., :-3, :] - f[..., 3:, :])
+    inc[..., 0, :] = c * (9.0 * f[..., 0, :] + 19.0 * f[..., 1, :] - 5.0 * f[..., 2, :] + f[..., 3, :])
+    inc[..., -1, :] = c * (9.0 * f[..., -1, :] + 19.0 * f[..., -2, :] - 5.0 * f[..., -3, :] + f[..., -4, :])
+    out = np.zeros_like(f)
+    np.cumsum(inc, axis=-2, out=out[..., 1:, :])
+    return out
+
+
+# Heights where the ozone tent profile has kinks (its only non-smooth points).
+_OZONE_KINKS_M = (
+    OZONE_PEAK_HEIGHT_M - OZONE_HALF_WIDTH_M,
+    OZONE_PEAK_HEIGHT_M,
+    OZONE_PEAK_HEIGHT_M + OZONE_HALF_WIDTH_M,
+)
+
+
+def _ozone_panel_nodes(steps: int) -> int:
+    return max(OZONE_MIN_NODES, int(steps) // 32)
+
+
+def _ozone_line(params: AtmosphereParams, r, mu, nodes_per_panel: int) -> np.ndarray:
+    """(N,) ozone density integrated from radius r along mu to where the straight line leaves
+    the top sphere, ignoring the Earth (the tent profile is 0 below its base anyway).
+
+    The line is cut into panels at every crossing of a kink height of the tent profile, so
+    the integrand is smooth on each panel, and each panel gets Gauss-Legendre quadrature.
+    """
+    length = _distance_to_top(params, r, mu)
+    cuts = [np.zeros_like(r), length]
+    b = r * mu
+    c0 = r * r * (mu * mu - 1.0)
+    for hk in _OZONE_KINKS_M:
+        rk = params.earth_radius + hk
+        disc = c0 + rk * rk
+        root = np.sqrt(np.maximum(disc, 0.0))
+        for sign in (-1.0, 1.0):
+            cuts.append(np.where(disc > 0.0, np.clip(-b + sign * root, 0.0, length), 0.0))
+    cuts = np.sort(np.stack(cuts, axis=-1), axis=-1)  # (N, 8)
+    lo, hi = cuts[:, :-1, None], cuts[:, 1:, None]  # (N, 7, 1)
+    x, w = np.polynomial.legendre.leggauss(int(nodes_per_panel))
+    half = 0.5 * (hi - lo)
+    s = 0.5 * (hi + lo) + half * x
+    rs = _radius_along(r, mu, s)
+    # The tent profile of atmosphere.ozone_density, written out for speed (tested equal).
+    tent = np.maximum(1.0 - np.abs(rs - (params.earth_radius + OZONE_PEAK_HEIGHT_M)) / OZONE_HALF_WIDTH_M, 0.0)
+    return np.einsum("nkj,j,nk->n", tent, w, half[..., 0])
+
+
+def _chunks(total: int, per_item: int):
+    size = max(1, _CHUNK_ELEMENTS // max(per_item, 1))
+    for start in range(0, total, size):
+        yield slice(start, min(start + size, total))
+
+
+# -- net densities and transmittance -------------------------------------------------------------
+
+def _net_density_flat(params: AtmosphereParams, r, mu, steps: int, with_ozone: bool = True) -> np.ndarray:
+    """(N, 3) net densities for flat arrays r (radius), mu; no Earth-hit handling.
+
+    Rayleigh and Mie: trapezoid on the clustered nodes; ozone: Gauss-Legendre panels split
+    at the tent's kinks (0 when ``with_ozone`` is False).
+    """
+    length = _distance_to_top(params, r, mu)
+    s, jac, du = _ray_nodes(r, mu, length, steps)
+    h = _radius_along(r, mu, s) - params.earth_radius
+    wts = jac * _trapezoid_weights(steps, du)
+    out = np.zeros((r.size, 3))
+    out[:, 0] = np.einsum("nk,nk->n", rayleigh_density(params, h), wts)
+    out[:, 1] = np.einsum("nk,nk->n", mie_density(params, h), wts)
+    if with_ozone:
+        out[:, 2] = _ozone_line(params, r, mu, _ozone_panel_nodes(steps))
+    return out
+
+
+def net_density_to_top(params: AtmosphereParams, height_m, cos_zenith, steps: int = 512) -> np.ndarray:
+    """(..., 3) Rayleigh, Mie, ozone densities integrated from the point to the top of the
+    atmosphere (metres x relative density) along the direction with the given zenith cosine.
+
+    ``HIT_EARTH_NET_DENSITY`` (1e20) for all three where the ray runs into the Earth.
+    Heights are clamped to [0, atmosphere_height], cosines to [-1, 1].
+    """
+    h, mu = np.broadcast_arrays(
+        _clamp_height(params, height_m), np.clip(np.asarray(cos_zenith, np.float64), -1.0, 1.0)
+    )
+    shape = h.shape
+    r = (h + params.earth_radius).ravel()
+    mu = mu.ravel()
+    out = np.empty((r.size, 3))
+    for sl in _chunks(r.size, 4 * (int(steps) + 1)):
+        out[sl] = _net_density_flat(params, r[sl], mu[sl], steps)
+    hit = _hits_earth(params, r, mu)
+    out[hit] = HIT_EARTH_NET_DENSITY
+    return out.reshape(shape + (3,))
+
+
+def transmittance_to_top(params: AtmosphereParams, height_m, cos_zenith, steps: int = 512) -> np.ndarray:
+    """(..., 3) RGB transmittance from the point to the top of the atmosphere; 0 where the
+    ray runs into the Earth."""
+    net = net_density_to_top(params, height_m, cos_zenith, steps)
+    hit = net[..., 0] >= HIT_EARTH_NET_DENSITY
+    t = np.exp(-np.where(hit[..., None], 0.0, net) @ params.extinction_matrix())
+    return np.where(hit[..., None], 0.0, t)
+
+
+# -- single scattering ---------------------------------------------------------------------------
+
+def _single_scattering_flat(params, r, mu_v, mu_s, nu, steps, sun_steps):
+    """(N, 3) single scattering for flat arrays (already clamped and made consistent)."""
+    ext = params.extinction_matrix()
+    with_ozone = bool(np.any(ext[2] != 0.0))
+    hits = _hits_earth(params, r, mu_v)
+    to_top = _distance_to_top(params, r, mu_v)
+    length = np.where(hits, np.minimum(_distance_to_ground(params, r, mu_v), to_top), to_top)
+    # Panels: split at the lowest point of the ray and where it crosses the Earth's shadow.
+    s_low = np.minimum(np.maximum(-r * mu_v, 0.0), length)
+    breaks = np.sort(
+        np.concatenate(
+            [np.stack([np.zeros_like(r), s_low, length], axis=-1),
+             _shadow_crossings(params, r, mu_v, mu_s, nu, length)],
+            axis=-1,
+        ),
+        axis=-1,
+    )
+    s, jac, du = _panel_nodes(breaks, steps)
+    rs = np.clip(_radius_along(r, mu_v, s), params.earth_radius, params.top_radius)
+    h_s = rs - params.earth_radius
+    rho = np.stack([rayleigh_density(params, h_s), mie_density(params, h_s)], axis=-1)  # (N, n+1, 2)
+
+    # Optical depth from the start of the view ray to every sample: 4th-order cumulative
+    # quadrature for Rayleigh and Mie; ozone as the difference of two Gauss-Legendre line
+    # integrals (from the start minus from the sample, same direction), exact at the kinks.
+    net_view = np.zeros(rho.shape[:-1] + (3,))
+    net_view[..., :2] = _cumulative_integral(rho * jac[..., None], du)
+    if with_ozone:
+        k = _ozone_panel_nodes(steps)
+        mu_v_at = np.clip((r[:, None] * mu_v[:, None] + s) / rs, -1.0, 1.0)
+        from_sample = _ozone_line(params, rs.ravel(), mu_v_at.ravel(), k).reshape(rs.shape)
+        net_view[..., 2] = np.maximum(_ozone_line(params, r, mu_v, k)[:, None] - from_sample, 0.0)
+        net_view[:, 0, 2] = 0.0
+    t_view = np.exp(-(net_view @ ext))
+
+    # Sun transmittance at every sample: a numerically integrated ray per sample.
+    mu_s_at = np.clip((r[:, None] * mu_s[:, None] + s * nu[:, None]) / rs, -1.0, 1.0)
+    r_flat = rs.ravel()
+    mu_flat = mu_s_at.ravel()
+    net_sun = _net_density_flat(params, r_flat, mu_flat, sun_steps, with_ozone)
+    t_sun = np.exp(-(net_sun @ ext))
+    t_sun[_hits_earth(params, r_flat, mu_flat)] = 0.0
+    t_sun = t_sun.reshape(rs.shape + (3,))
+
+    weight = t_view * t_sun * jac[..., None]  # (N, n+1, 3)
+    ray_r = _trapezoid(rho[..., 0:1] * weight, du)  # (N, 3)
+    ray_m = _trapezoid(rho[..., 1:2] * weight, du)
+    pr = rayleigh_phase(nu)[:, None]
+    pm = mie_phase(nu, params.mie_g)[:, None]
+    return params.rayleigh * pr * ray_r + params.mie * pm * ray_m
+
+
+def single_scattering(
+    params: AtmosphereParams,
+    height_m,
+    cos_view_zenith,
+    cos_sun_zenith,
+    cos_sun_view,
+    steps: int = 256,
+    sun_steps: int = 64,
+) -> np.ndarray:
+    """(..., 3) single-scattered radiance per unit extraterrestrial sun (phase included).
+
+    L = int_0^D [beta_R rho_R(h_s) p_R(nu) + beta_M rho_M(h_s) p_M(nu, g)] T_view(0->s) T_sun(P_s) ds
+
+    with D the distance to the ground when the view ray hits the Earth, else to the top of
+    the atmosphere. ``steps`` intervals on the view ray (clustered at its lowest point and at
+    the Earth's shadow boundary), the view optical depth integrated cumulatively on the same
+    nodes, and ``sun_steps`` intervals on the sun ray from every view sample (``T_sun`` = 0 where the
+    sun ray runs into the Earth). ``cos_sun_view`` is clamped into the range that is
+    geometrically consistent with the two zenith cosines; heights are clamped to
+    [0, atmosphere_height]. 0 where the view ray has zero length.
+    """
+    if int(steps) < 3 or int(sun_steps) < 2:
+        raise ValueError(f"need steps >= 3 and sun_steps >= 2, got {steps}, {sun_steps}")
+    h, mu_v, mu_s, nu = np.broadcast_arrays(
+        _clamp_height(params, height_m),
+        np.clip(np.asarray(cos_view_zenith, np.float64), -1.0, 1.0),
+        np.clip(np.asarray(cos_sun_zenith, np.float64), -1.0, 1.0),
+        np.asarray(cos_sun_view, np.float64),
+    )
+    shape = h.shape
+    r = (h + params.earth_radius).ravel()
+    mu_v = mu_v.ravel()
+    mu_s = mu_s.ravel()
+    sin_v = np.sqrt(np.maximum(1.0 - mu_v * mu_v, 0.0))
+    sin_s = np.sqrt(np.maximum(1.0 - mu_s * mu_s, 0.0))
+    nu = np.clip(nu.ravel(), mu_v * mu_s - sin_v * sin_s, mu_v * mu_s + sin_v * sin_s)
+    nu = np.clip(nu, -1.0, 1.0)
+    out = np.empty((r.size, 3))
+    per_ray = (int(steps) + 1) * (int(sun_steps) + 1) * 4
+    for sl in _chunks(r.size, per_ray):
+        out[sl] = _single_scattering_flat(params, r[sl], mu_v[sl], mu_s[sl], nu[sl], steps, sun_steps)
+    return out.reshape(shape + (3,))
