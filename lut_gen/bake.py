@@ -76,6 +76,17 @@ def _parallel_rows(function, count: int, progress: Progress, stage: str):
             progress(stage, done / count)
 
 
+# Work items stay below ~32 MB per temporary array: larger ones are mmapped afresh by malloc
+# on every allocation and page faults then cost more than the arithmetic.
+LOOKUPS_PER_BATCH = 1 << 18
+
+
+def _ray_batches(n_h: int, n_a: int, lookups_per_ray: int):
+    """(height index, slice of view rays) work items of about LOOKUPS_PER_BATCH look-ups."""
+    rays = max(1, min(n_a, LOOKUPS_PER_BATCH // max(1, lookups_per_ray)))
+    return [(i, slice(a, min(a + rays, n_a))) for i in range(n_h) for a in range(0, n_a, rays)]
+
+
 def resolve_resolution(resolution: Union[str, Sequence[int], Resolution]) -> Resolution:
     if isinstance(resolution, Resolution):
         return resolution
@@ -201,9 +212,11 @@ def view_ray_nodes(params: AtmosphereParams, height: float, cos_view, above, n_n
 
 
 def _node_cos_sun(r, nodes: RayNodes, cos_sun, cos_sun_view):
-    """(rays, n_s, n_t, K) cos sun zenith at every node: (r c_s + s c_t) / |P|."""
-    return ((r * cos_sun[None, :, None, None] + nodes.s[:, None, None, :] * cos_sun_view[..., None])
-            / nodes.radius[:, None, None, :]).astype(np.float32)
+    """(rays, K, n_s, n_t) cos sun zenith at every node: (r c_s + s c_t) / |P|."""
+    s = nodes.s[:, :, None, None].astype(np.float32)
+    inv_radius = (1.0 / nodes.radius)[:, :, None, None].astype(np.float32)
+    return (np.float32(r) * cos_sun[None, None, :, None].astype(np.float32)
+            + s * cos_sun_view[:, None].astype(np.float32)) * inv_radius
 
 
 def rayleigh_phase_at_nodes(params: AtmosphereParams, dims) -> np.ndarray:
@@ -233,27 +246,30 @@ def bake_single(params: AtmosphereParams, dims, trans_table: np.ndarray, progres
     cells, width = packed_rows(bilinear_cells(padded).reshape((n_odh - 1) * (n_odc - 1), 16))
     k_nodes = SINGLE_NODES
     out = np.empty((n_h, n_a, n_s, n_t, 3), dtype=np.float32)
+    tasks = _ray_batches(n_h, n_a, k_nodes * n_s * n_t)
 
-    def fill(i):
-        nodes = view_ray_nodes(params, heights[i], cos_view[i], above, k_nodes, SINGLE_SUBSTEPS)
-        ct = par.clamp_sun_view(cos_view[i][:, None, None], cos_sun[None, :, None], cos_sun_view[None, None, :])
+    def fill(task):
+        i, rays = tasks[task]
+        nodes = view_ray_nodes(params, heights[i], cos_view[i][rays], above[rays], k_nodes, SINGLE_SUBSTEPS)
+        ct = par.clamp_sun_view(cos_view[i][rays, None, None], cos_sun[None, :, None], cos_sun_view[None, None, :])
         node_h = nodes.radius - params.earth_radius
         ih, wh = axis_weights(par.unit_to_centre_x(node_h / params.atmosphere_height, n_odh), n_odh)
-        cos_node = _node_cos_sun(params.earth_radius + heights[i], nodes, cos_sun, ct)       # (a, s, t, K)
+        cos_node = _node_cos_sun(params.earth_radius + heights[i], nodes, cos_sun, ct)       # (a, K, s, t)
         ic, wc = axis_weights(par.unit_to_centre_x(cos_node * np.float32(0.5) + np.float32(0.5), n_odc), n_odc)
-        cell = gather(cells, width, ih[:, None, None, :] * (n_odc - 1) + ic).reshape(cos_node.shape + (4, 4))
+        # Node-major order keeps each gather inside one table row (cache friendly).
+        cell = gather(cells, width, ih[:, :, None, None] * (n_odc - 1) + ic).reshape(cos_node.shape + (4, 4))
         basis = np.empty(cos_node.shape + (4,), dtype=np.float32)    # bilinear basis 1, wc, wh, wc*wh
         basis[..., 0] = 1.0
         basis[..., 1] = wc
-        basis[..., 2] = wh[:, None, None, :]
-        basis[..., 3] = wc * wh[:, None, None, :]
-        sun_trans = np.einsum("astkjc,astkj->astkc", cell, basis)[..., :3]               # (a, s, t, K, 3)
-        ray_r = np.einsum("astkc,akc->astc", sun_trans, nodes.weight_rayleigh)
-        ray_m = np.einsum("astkc,akc->astc", sun_trans, nodes.weight_mie)
+        basis[..., 2] = wh[:, :, None, None]
+        basis[..., 3] = wc * wh[:, :, None, None]
+        sun_trans = np.einsum("akstjc,akstj->akstc", cell, basis)[..., :3]               # (a, K, s, t, 3)
+        ray_r = np.einsum("akstc,akc->astc", sun_trans, nodes.weight_rayleigh)
+        ray_m = np.einsum("akstc,akc->astc", sun_trans, nodes.weight_mie)
         phase_ratio = (mie_phase(ct, params.mie_g) / rayleigh_phase(ct))[..., None]
-        out[i] = params.rayleigh * ray_r + params.mie * phase_ratio * ray_m
+        out[i, rays] = params.rayleigh * ray_r + params.mie * phase_ratio * ray_m
 
-    _parallel_rows(fill, n_h, progress, "single scattering")
+    _parallel_rows(fill, len(tasks), progress, "single scattering")
     return out
 
 
@@ -268,18 +284,32 @@ def sphere_zenith_grid(atmosphere_height: float, earth_radius: float):
     return 0.5 * (edges[1:] + edges[:-1]), np.diff(edges)
 
 
+def _cosine_transforms(n_az: int):
+    """Forward (m, j) and inverse (j, m) real DFTs of sequences on a circle of n_az samples
+    that are symmetric about az = 0, using only the samples j = 0 .. n_az/2 (az in [0, pi])."""
+    half = n_az // 2 + 1
+    angle = 2 * math.pi * np.outer(np.arange(half), np.arange(half)) / n_az
+    doubled = np.full(half, 2.0)
+    doubled[[0, -1]] = 1.0           # az = 0 and az = pi appear once on the full circle
+    forward = np.cos(angle) * doubled[None, :]
+    inverse = np.cos(angle).T * doubled[None, :] / n_az
+    return forward.astype(np.float32), inverse.astype(np.float32)
+
+
 def phase_kernels(params: AtmosphereParams, mu, mu_weights, n_az: int):
-    """Real FFT (over the azimuth difference) of the discretised phase functions,
+    """Spectra over the azimuth difference of the discretised phase functions,
     (n_az//2+1, n_mu_out, n_mu_in) for Rayleigh and Mie, rows normalised to integrate to 1."""
     sin = np.sqrt(np.clip(1 - mu * mu, 0, 1))
     d_az = 2 * math.pi / n_az
-    cos_az = np.cos(np.arange(n_az) * d_az)
+    cos_az = np.cos(np.arange(n_az // 2 + 1) * d_az)
     cosang = mu[:, None, None] * mu[None, :, None] + sin[:, None, None] * sin[None, :, None] * cos_az
+    forward, _ = _cosine_transforms(n_az)
     kernels = []
     for phase in (rayleigh_phase(cosang), mie_phase(cosang, params.mie_g)):
         k = phase * mu_weights[None, :, None] * d_az
-        k /= k.sum(axis=(1, 2), keepdims=True)
-        kernels.append(np.fft.rfft(k, axis=2).real.transpose(2, 0, 1).copy())
+        spectrum = np.einsum("vwj,mj->mvw", k, forward.astype(np.float64))
+        spectrum /= spectrum[0].sum(axis=1)[None, :, None]      # m = 0 holds the full integral
+        kernels.append(spectrum.astype(np.float32))
     return kernels
 
 
@@ -288,46 +318,53 @@ def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az):
     coefficient) on the order grid: (n_h, n_a, n_s, n_t, 6). ``prev_n`` is the previous order
     divided by the Rayleigh phase, like the stored tables."""
     n_h, n_a, n_s, n_t = dims_j
+    n_mu = len(mu)
     heights, cos_view, _, cos_sun, cos_sun_view = par.grid_axes(params, dims_j)
     half = n_az // 2 + 1
-    az = np.arange(half) * (2 * math.pi / n_az)
+    d_az = 2 * math.pi / n_az
+    az = np.arange(half) * d_az
     sin_mu = np.sqrt(np.clip(1 - mu * mu, 0, 1))
     sin_sun = np.sqrt(np.clip(1 - cos_sun * cos_sun, 0, 1))
-    # Previous-order radiance on the direction grid (exact height and sun nodes).
+    # Previous-order radiance on the direction grid (exact height and sun nodes): (h, s, mu, az, 3).
     xa, _ = par.view_zenith_to_x(mu[None, :], heights[:, None], n_a, params.earth_radius)    # (h, mu)
     ct = mu[None, :, None] * cos_sun[:, None, None] + sin_mu[None, :, None] * sin_sun[:, None, None] * np.cos(az)
     xt = par.sun_view_to_x(ct, n_t)                                                          # (s, mu, az)
     ia, wa = axis_weights(xa, n_a)
     it, wt = axis_weights(xt, n_t)
-    rows = prev_n.reshape(-1, 3)
+    packed, width = packed_rows(prev_n.reshape(-1, 3))
     base_h = np.arange(n_h)[:, None, None, None] * (n_a * n_s * n_t)
     base_s = np.arange(n_s)[None, :, None, None] * n_t
-    radiance = np.zeros((n_h, n_s, len(mu), half, 3), dtype=np.float32)
+    radiance = np.zeros((n_h, n_s, n_mu, half, width), dtype=np.float32)
     for da, w_a in ((0, 1 - wa), (1, wa)):
         for dt, w_t in ((0, 1 - wt), (1, wt)):
             idx = base_h + (ia + da)[:, None, :, None] * (n_s * n_t) + base_s + (it + dt)[None]
-            radiance += (w_a[:, None, :, None] * w_t[None])[..., None] * rows[idx]
-    radiance *= rayleigh_phase(ct).astype(np.float32)[None, ..., None]
-    full = np.concatenate([radiance, radiance[:, :, :, -2:0:-1]], axis=3)                  # mirror azimuth
-    spectrum = np.fft.rfft(full, axis=3)                                                     # (h, s, mu, m, 3)
-    spec = spectrum.transpose(3, 2, 0, 1, 4).reshape(half, len(mu), -1)                      # (m, mu, h*s*3)
-    out_dirs = []
-    for kernel in kernels:
-        conv = np.matmul(kernel, spec.real) + 1j * np.matmul(kernel, spec.imag)
-        conv = conv.reshape(half, len(mu), n_h, n_s, 3).transpose(2, 3, 1, 0, 4)          # (h, s, mu, m, 3)
-        out_dirs.append(np.fft.irfft(conv, n=n_az, axis=3)[:, :, :, :half])                  # az in [0, pi]
+            radiance += (w_a[:, None, :, None] * w_t[None])[..., None] * gather(packed, width, idx)
+    radiance = radiance[..., :3] * rayleigh_phase(ct).astype(np.float32)[None, ..., None]
+    # Convolution in azimuth = product of cosine spectra; a matmul over mu per frequency.
+    forward, inverse = _cosine_transforms(n_az)
+    by_az = np.ascontiguousarray(radiance.transpose(3, 2, 0, 1, 4)).reshape(half, -1)           # (j, mu*h*s*3)
+    spectrum = (forward @ by_az).reshape(half, n_mu, -1)                                       # (m, mu, h*s*3)
+    table = np.zeros((n_h, n_s, n_mu, half, 8), dtype=np.float32)                             # 6 used, 8 packs
+    for medium, kernel in enumerate(kernels):
+        conv = np.matmul(kernel, spectrum).reshape(half, -1)                                   # (m, mu_v*h*s*3)
+        back = (inverse @ conv).reshape(half, n_mu, n_h, n_s, 3)                              # (j, mu_v, h, s, 3)
+        table[..., 3 * medium:3 * medium + 3] = back.transpose(2, 3, 1, 0, 4)
     # Resample from (mu, az) to the table's (cos view zenith, cos sun-view) nodes.
     ca = cos_view[:, :, None, None]                                                         # (h, a, 1, 1)
     cs = cos_sun[None, None, :, None]
     ctn = par.clamp_sun_view(ca, cs, cos_sun_view[None, None, None, :])                     # (h, a, s, t)
     denom = np.sqrt(np.clip(1 - ca * ca, 0, 1) * np.clip(1 - cs * cs, 0, 1))
     cos_daz = np.where(denom > 1e-9, (ctn - ca * cs) / np.maximum(denom, 1e-9), 1.0)
-    x_az = np.arccos(np.clip(cos_daz, -1, 1)) / (2 * math.pi / n_az)
-    x_mu = np.interp(cos_view, mu, np.arange(len(mu)))                                       # (h, a)
-    coords = (np.arange(n_h)[:, None, None, None], x_mu[:, :, None, None],
-              np.arange(n_s)[None, None, :, None], x_az)
-    table = np.concatenate(out_dirs, axis=-1).transpose(0, 2, 1, 3, 4)                      # (h, mu, s, az, 6)
-    return interpolate(np.ascontiguousarray(table, dtype=np.float32), coords)
+    i_az, w_az = axis_weights(np.arccos(np.clip(cos_daz, -1, 1)) / d_az, half)               # (h, a, s, t)
+    i_mu, w_mu = axis_weights(np.interp(cos_view, mu, np.arange(n_mu)), n_mu)                 # (h, a)
+    packed, width = packed_rows(table.reshape(-1, 8))
+    base = (np.arange(n_h)[:, None, None, None] * n_s + np.arange(n_s)[None, None, :, None]) * n_mu
+    out = np.zeros((n_h, n_a, n_s, n_t, width), dtype=np.float32)
+    for dm, w_m in ((0, 1 - w_mu), (1, w_mu)):
+        for dz, w_z in ((0, 1 - w_az), (1, w_az)):
+            idx = (base + (i_mu + dm)[:, :, None, None]) * half + i_az + dz
+            out += (w_m[:, :, None, None] * w_z)[..., None] * gather(packed, width, idx)
+    return out[..., :6]
 
 
 def _integrate_order(params, dims_j, j_table, progress: Progress, stage: str):
@@ -336,32 +373,37 @@ def _integrate_order(params, dims_j, j_table, progress: Progress, stage: str):
     heights, cos_view, above, cos_sun, cos_sun_view = par.grid_axes(params, dims_j)
     out = np.empty((n_h, n_a, n_s, n_t, 3), dtype=np.float32)
 
-    def fill(i):
-        nodes = view_ray_nodes(params, heights[i], cos_view[i], above, HIGHER_NODES, HIGHER_SUBSTEPS)
+    tasks = _ray_batches(n_h, n_a, HIGHER_NODES * n_s * n_t * 2)
+
+    def fill(task):
+        i, rays = tasks[task]
+        cos_view_i, above_i = cos_view[i][rays], above[rays]
+        n_rays = len(cos_view_i)
+        nodes = view_ray_nodes(params, heights[i], cos_view_i, above_i, HIGHER_NODES, HIGHER_SUBSTEPS)
         r = params.earth_radius + heights[i]
         node_h = nodes.radius - params.earth_radius
-        node_cos_view = (r * cos_view[i][:, None] + nodes.s) / nodes.radius
+        node_cos_view = (r * cos_view_i[:, None] + nodes.s) / nodes.radius
         xh = par.height_to_x(node_h, n_h, params.atmosphere_height)
         xa, _ = par.view_zenith_to_x(node_cos_view, node_h, n_a, params.earth_radius,
-                                     above_horizon=np.broadcast_to(above[:, None], node_h.shape))
+                                     above_horizon=np.broadcast_to(above_i[:, None], node_h.shape))
         ih, wh = axis_weights(xh, n_h)
         ia, wa = axis_weights(xa, n_a)
         # Slab of J~ at each node's (height, view zenith), sun-view major: (a, K, t, s, 6).
         slab = sum((w_h * w_a)[..., None, None, None] * j_table[ih + dh, ia + da].transpose(0, 1, 3, 2, 4)
                    for dh, w_h in ((0, 1 - wh), (1, wh)) for da, w_a in ((0, 1 - wa), (1, wa)))
-        ct = par.clamp_sun_view(cos_view[i][:, None, None], cos_sun[None, :, None], cos_sun_view[None, None, :])
-        cos_node = _node_cos_sun(r, nodes, cos_sun, ct)                                      # (a, s, t, K)
+        ct = par.clamp_sun_view(cos_view_i[:, None, None], cos_sun[None, :, None], cos_sun_view[None, None, :])
+        cos_node = _node_cos_sun(r, nodes, cos_sun, ct)                                      # (a, K, s, t)
         i_s, w_s = axis_weights(par.sun_zenith_to_x(cos_node, n_s), n_s)
-        flat = slab.reshape(-1, 6)
-        base = ((np.arange(n_a)[:, None, None, None] * HIGHER_NODES + np.arange(HIGHER_NODES)) * n_t
-                + np.arange(n_t)[None, None, :, None]) * n_s                                  # (a, 1, t, K)
-        lo = flat[base + i_s]
-        j_nodes = lo + (flat[base + i_s + 1] - lo) * w_s[..., None]                          # (a, s, t, K, 6)
-        ray_r = np.einsum("astkc,akc->astc", j_nodes[..., :3], nodes.weight_rayleigh)
-        ray_m = np.einsum("astkc,akc->astc", j_nodes[..., 3:], nodes.weight_mie)
-        out[i] = (params.rayleigh * ray_r + params.mie * ray_m) / rayleigh_phase(ct)[..., None]
+        packed, width = packed_rows(slab.reshape(-1, 6))
+        base = ((np.arange(n_rays)[:, None, None, None] * HIGHER_NODES + np.arange(HIGHER_NODES)[None, :, None, None]) * n_t
+                + np.arange(n_t)[None, None, None, :]) * n_s                                  # (a, K, 1, t)
+        lo = gather(packed, width, base + i_s)
+        j_nodes = lo + (gather(packed, width, base + i_s + 1) - lo) * w_s[..., None]         # (a, K, s, t, 8)
+        ray_r = np.einsum("akstc,akc->astc", j_nodes[..., :3], nodes.weight_rayleigh)
+        ray_m = np.einsum("akstc,akc->astc", j_nodes[..., 3:6], nodes.weight_mie)
+        out[i, rays] = (params.rayleigh * ray_r + params.mie * ray_m) / rayleigh_phase(ct)[..., None]
 
-    _parallel_rows(fill, n_h, progress, stage)
+    _parallel_rows(fill, len(tasks), progress, stage)
     return out
 
 
