@@ -364,7 +364,9 @@ def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az):
         for dz, w_z in ((0, 1 - w_az), (1, w_az)):
             idx = (base + (i_mu + dm)[:, :, None, None]) * half + i_az + dz
             out += (w_m[:, :, None, None] * w_z)[..., None] * gather(packed, width, idx)
-    return out[..., :6]
+    # The cosine-series convolution rings slightly (a few 1e-3 of the peak) next to the sun's
+    # Mie peak; scattered radiance is never negative.
+    return np.maximum(out[..., :6], 0.0)
 
 
 def _integrate_order(params, dims_j, j_table, progress: Progress, stage: str):
@@ -439,7 +441,7 @@ def bake_higher_orders(params: AtmosphereParams, dims, single_n: np.ndarray, ord
         total += prev
         timings.append((f"order {order}", time.perf_counter() - t0))
     higher = resample_separable(total, grid_to_grid_matrices(params, dims_j, dims) + [None])
-    return np.maximum(higher, 0.0), timings
+    return higher, timings
 
 
 # -- ambient skylight ----------------------------------------------------------------------
@@ -493,6 +495,8 @@ def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", ord
     timings["higher orders (total)"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
+    # Bilinear cell arithmetic leaves values of ~1e-20 below zero where radiance is zero.
+    single, higher = np.maximum(single, 0.0), np.maximum(higher, 0.0)
     luts = Luts(params, single, higher, optical_depth, np.zeros((res.ambient, 3), np.float32),
                 orders=int(orders), timings=timings)
     luts.ambient = bake_ambient(luts, res.ambient)

@@ -89,11 +89,11 @@ def read_key(directory) -> Optional[str]:
     return _read_header(path).get(PREFIX + "bake_key")
 
 
-def save(luts: Luts, directory, *, overwrite: bool = False) -> Path:
-    """Write every table of ``luts`` to ``directory`` (created if missing)."""
-    OpenEXR = _require_openexr()
+def check_output_directory(directory, key: str, *, overwrite: bool = False) -> Path:
+    """Create ``directory`` if needed and make sure a bake with ``key`` may be written there:
+    writable, and not holding a different bake unless ``overwrite``. Cheap: call it before
+    a long bake so that a bad --out fails at once."""
     directory = Path(directory)
-    key = luts_key(luts)
     try:
         directory.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -104,6 +104,15 @@ def save(luts: Luts, directory, *, overwrite: bool = False) -> Path:
     if existing not in (None, key) and not overwrite:
         raise LutError(f"{directory} holds a different bake ({existing}); choose another directory "
                        "or pass --overwrite to replace it")
+    return directory
+
+
+def save(luts: Luts, directory, *, overwrite: bool = False) -> Path:
+    """Write every table of ``luts`` to ``directory`` (created if missing)."""
+    OpenEXR = _require_openexr()
+    directory = Path(directory)
+    key = luts_key(luts)
+    check_output_directory(directory, key, overwrite=overwrite)
     common = {
         PREFIX + "layout_version": str(LAYOUT_VERSION),
         PREFIX + "baker_version": str(BAKER_VERSION),

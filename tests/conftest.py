@@ -10,3 +10,18 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
+
+import pytest  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def default_luts():
+    """The default-resolution bake (the sample's 32 x 128 x 64 x 16 tables), once per session."""
+    import lut_gen
+    return lut_gen.bake(resolution="default")
+
+
+@pytest.fixture(scope="session")
+def draft_luts():
+    import lut_gen
+    return lut_gen.bake(resolution="draft")

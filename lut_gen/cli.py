@@ -1,0 +1,147 @@
+"""Command line: ``python -m lut_gen bake --out DIR`` and ``python -m lut_gen sample``."""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import time
+from pathlib import Path
+
+from .atmosphere import AtmosphereParams
+from .bake import RESOLUTIONS, bake
+from .cache import cached_bake, default_cache_root, key_for
+from .exr_io import LutError, check_output_directory, read_key, save
+
+EXIT_ERROR = 1
+
+
+class TerminalProgress:
+    """One self-updating line on a terminal, one line per finished stage otherwise."""
+
+    def __init__(self, stream=sys.stderr, enabled: bool = True):
+        self.stream, self.enabled = stream, enabled
+        self.tty = hasattr(stream, "isatty") and stream.isatty()
+        self.stage, self.start = None, time.perf_counter()
+
+    def __call__(self, stage: str, fraction: float):
+        if not self.enabled:
+            return
+        if stage != self.stage:
+            self.stage = stage
+        if self.tty:
+            bar = "#" * int(fraction * 30)
+            self.stream.write(f"\r  {stage:<24} [{bar:<30}] {fraction * 100:5.1f}%  {time.perf_counter() - self.start:6.1f}s")
+            if fraction >= 1.0:
+                self.stream.write("\n")
+            self.stream.flush()
+        elif fraction >= 1.0:
+            self.stream.write(f"  {stage}: done at {time.perf_counter() - self.start:.1f}s\n")
+            self.stream.flush()
+
+
+def _flag(name: str) -> str:
+    return "--" + name.replace("_", "-")
+
+
+def _add_param_options(parser: argparse.ArgumentParser):
+    """One option per AtmosphereParams field, defaults from the dataclass."""
+    group = parser.add_argument_group("atmosphere parameters (defaults: the sample's media)")
+    defaults = AtmosphereParams()
+    for f in dataclasses.fields(AtmosphereParams):
+        default = getattr(defaults, f.name)
+        if isinstance(default, bool):
+            group.add_argument(_flag(f.name), action=argparse.BooleanOptionalAction, default=None,
+                               help=f"enable/disable (default {default})")
+        elif isinstance(default, tuple):
+            group.add_argument(_flag(f.name), type=float, nargs=3, metavar=("R", "G", "B"), default=None,
+                               help=f"1/m (default {' '.join(f'{v:.4g}' for v in default)})")
+        else:
+            group.add_argument(_flag(f.name), type=float, default=None, help=f"(default {default:g})")
+
+
+def params_from_args(args) -> AtmosphereParams:
+    changes = {}
+    for f in dataclasses.fields(AtmosphereParams):
+        value = getattr(args, f.name)
+        if value is not None:
+            changes[f.name] = tuple(value) if isinstance(value, list) else value
+    return dataclasses.replace(AtmosphereParams(), **changes).validate()
+
+
+def parse_resolution(text: str):
+    if text in RESOLUTIONS:
+        return text
+    try:
+        dims = tuple(int(v) for v in text.lower().split("x"))
+    except ValueError:
+        dims = ()
+    if len(dims) != 4:
+        raise argparse.ArgumentTypeError(
+            f"resolution must be {' or '.join(RESOLUTIONS)} or HxVxSxT table sizes (e.g. 32x128x64x16), got {text!r}")
+    return dims
+
+
+def _common(parser):
+    parser.add_argument("--resolution", type=parse_resolution, default="default",
+                        help="draft, default (32x128x64x16) or HxVxSxT")
+    parser.add_argument("--orders", type=int, default=4, help="scattering orders (default 4)")
+    parser.add_argument("--quiet", action="store_true", help="no progress display")
+    _add_param_options(parser)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m lut_gen", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+    p_bake = sub.add_parser("bake", help="bake the tables into a directory of EXR files")
+    p_bake.add_argument("--out", required=True, type=Path, help="output directory")
+    p_bake.add_argument("--overwrite", action="store_true", help="replace a different bake already in --out")
+    _common(p_bake)
+    p_sample = sub.add_parser("sample", help="bake (cached) and write a PNG preview of the sky")
+    p_sample.add_argument("--out", type=Path, default=Path("build/sample.png"), help="PNG path")
+    p_sample.add_argument("--luts", type=Path, default=None,
+                          help=f"bake directory (default: cache under {default_cache_root()})")
+    _common(p_sample)
+    return parser
+
+
+def cmd_bake(args) -> int:
+    params = params_from_args(args)
+    key = key_for(params, args.resolution, args.orders)
+    if read_key(args.out) == key:
+        print(f"cache hit: {args.out} already holds this bake ({key}); nothing to do")
+        return 0
+    check_output_directory(args.out, key, overwrite=args.overwrite)
+    progress = TerminalProgress(enabled=not args.quiet)
+    start = time.perf_counter()
+    luts = bake(params, resolution=args.resolution, orders=args.orders, progress=progress)
+    save(luts, args.out, overwrite=args.overwrite)
+    print(f"baked {key} in {time.perf_counter() - start:.1f}s -> {args.out}")
+    return 0
+
+
+def cmd_sample(args) -> int:
+    from .png import to_srgb8, write_png
+    from .preview import DEFAULT_SUN_ELEVATIONS, preview_image
+
+    params = params_from_args(args)
+    if not args.out.parent.exists():
+        args.out.parent.mkdir(parents=True)
+    luts, directory, hit = cached_bake(params, resolution=args.resolution, orders=args.orders,
+                                       directory=args.luts, progress=TerminalProgress(enabled=not args.quiet))
+    print(("cache hit: " if hit else "baked: ") + str(directory))
+    write_png(args.out, to_srgb8(preview_image(luts)))
+    print(f"wrote {args.out} (sky at sun elevations {', '.join(f'{e:g}' for e in DEFAULT_SUN_ELEVATIONS)} deg)")
+    return 0
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return {"bake": cmd_bake, "sample": cmd_sample}[args.command](args)
+    except (LutError, ValueError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_ERROR
+    except KeyboardInterrupt:
+        print("interrupted; nothing was written", file=sys.stderr)
+        return 130
