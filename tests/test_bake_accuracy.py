@@ -169,8 +169,11 @@ def test_horizon_seam_is_continuous_for_a_consistent_flag(default_luts):
             # Linear interpolation between nodes cannot vary more than the nodes it spans.
             node_variation = np.abs(np.diff(node_values, axis=0)).sum(axis=0)
             assert np.all(np.abs(np.diff(values, axis=0)).sum(axis=0) <= node_variation * 1.001 + 1e-12), (h, flag)
-        free = default_luts.sky_radiance(h, np.array([c_h - 1e-9, c_h + 1e-9]), cos_sun, cos_sun_view)
-        assert np.any(np.abs(free[1] - free[0]) > 0.1 * free.max(axis=0)), h
+    # Near the ground the sky and ground sides of the horizon differ by ~15%: a look-up that
+    # decides its flag per point jumps there.
+    c_h = float(par.cos_horizon(500.0, P.earth_radius))
+    free = default_luts.sky_radiance(500.0, np.array([c_h - 1e-9, c_h + 1e-9]), cos_sun, cos_sun_view)
+    assert np.all(np.abs(free[1] - free[0]) > 0.05 * free.max(axis=0))
 
 
 def test_transmittance_to_top_matches_reference(default_luts):
