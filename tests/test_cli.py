@@ -1,0 +1,95 @@
+"""python -m lut_gen: bake with progress and cache hits, one-line errors, sample preview."""
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+SMALL = ["--resolution", "8x16x8x4", "--orders", "2"]
+
+
+def run(*args, env_extra=None):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    env.update(env_extra or {})
+    return subprocess.run([sys.executable, "-m", "lut_gen", *args], capture_output=True, text=True,
+                          cwd=ROOT, env=env, timeout=300)
+
+
+def test_bake_then_cache_hit(tmp_path):
+    first = run("bake", "--out", str(tmp_path / "luts"), *SMALL)
+    assert first.returncode == 0, first.stderr
+    assert "baked" in first.stdout and "single scattering" in first.stderr       # progress shown
+    assert len(list((tmp_path / "luts").glob("*.exr"))) == 5
+    second = run("bake", "--out", str(tmp_path / "luts"), *SMALL)
+    assert second.returncode == 0 and "cache hit" in second.stdout
+
+
+def test_every_param_has_an_option(tmp_path):
+    result = run("bake", "--out", str(tmp_path / "l"), *SMALL, "--aerosol-density", "2",
+                 "--aerosol-absorption", "0.3", "--ozone", "--mie-g", "0.7",
+                 "--rayleigh-scattering", "6e-6", "1.4e-5", "3.3e-5", "--quiet")
+    assert result.returncode == 0, result.stderr
+    import lut_gen
+    params = lut_gen.load(tmp_path / "l").params
+    assert params.ozone and params.aerosol_density == 2 and params.aerosol_absorption == 0.3
+    assert params.mie_g == 0.7 and params.rayleigh_scattering == (6e-6, 1.4e-5, 3.3e-5)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--aerosol-density", "-1"], "aerosol_density must be >= 0"),
+    (["--mie-scale-height", "nan"], "mie_scale_height must be finite"),
+])
+def test_bad_params_give_one_line_errors(tmp_path, args, message):
+    result = run("bake", "--out", str(tmp_path / "l"), *SMALL, *args)
+    assert result.returncode == 1
+    assert result.stderr.strip().count("\n") == 0 and message in result.stderr
+    assert not (tmp_path / "l").exists() or not any((tmp_path / "l").iterdir())
+
+
+def test_unwritable_out(tmp_path):
+    (tmp_path / "file").write_text("x")
+    result = run("bake", "--out", str(tmp_path / "file" / "luts"), *SMALL)
+    assert result.returncode == 1 and "cannot create output directory" in result.stderr
+
+
+def test_other_bake_in_out_dir_is_kept(tmp_path):
+    assert run("bake", "--out", str(tmp_path / "l"), *SMALL, "--quiet").returncode == 0
+    before = {p.name: p.read_bytes() for p in (tmp_path / "l").iterdir()}
+    result = run("bake", "--out", str(tmp_path / "l"), *SMALL, "--aerosol-density", "3")
+    assert result.returncode == 1 and "holds a different bake" in result.stderr
+    assert result.stderr.strip().count("\n") == 0
+    assert {p.name: p.read_bytes() for p in (tmp_path / "l").iterdir()} == before
+
+
+def test_corrupt_bake_dir_is_reported(tmp_path):
+    assert run("bake", "--out", str(tmp_path / "l"), *SMALL, "--quiet").returncode == 0
+    path = tmp_path / "l" / "multiple_scattering.exr"
+    path.write_bytes(path.read_bytes()[:1000])
+    result = run("sample", "--luts", str(tmp_path / "l"), "--out", str(tmp_path / "s.png"), *SMALL, "--quiet")
+    # A damaged bake directory is reported, not silently replaced.
+    assert result.returncode == 1 and "multiple_scattering.exr" in result.stderr
+
+
+def test_bad_resolution_is_a_usage_error(tmp_path):
+    result = run("bake", "--out", str(tmp_path / "l"), "--resolution", "huge")
+    assert result.returncode == 2 and "resolution must be" in result.stderr
+
+
+def test_sample_writes_a_sky_preview(tmp_path):
+    out = tmp_path / "sample.png"
+    result = run("sample", "--out", str(out), "--resolution", "draft", "--quiet",
+                 env_extra={"OLS_CACHE_DIR": str(tmp_path / "cache")})
+    assert result.returncode == 0, result.stderr
+    data = out.read_bytes()
+    assert data.startswith(b"\x89PNG")
+    import zlib, struct
+    width, height = struct.unpack(">II", data[16:24])
+    idat = data[data.index(b"IDAT") + 4:data.index(b"IEND") - 8]
+    rows = np.frombuffer(zlib.decompress(idat), np.uint8).reshape(height, 1 + width * 3)[:, 1:]
+    rgb = rows.reshape(height, width, 3).astype(int)
+    sky = rgb[:100]                                         # the midday panorama
+    assert sky.mean() > 60                                  # not black
+    assert (sky[..., 2] > sky[..., 0]).mean() > 0.9         # blue sky
