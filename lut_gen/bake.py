@@ -58,8 +58,12 @@ OPTICAL_DEPTH_STEPS = 48        # nodes per optical-depth ray (clustered toward 
 SINGLE_NODES = 32               # sun-transmittance nodes per view ray
 SINGLE_SUBSTEPS = 8             # fine steps per node interval for density x transmittance
 NODE_UNIFORM_SHARE = 0.6        # keeps far, sunlit stretches of twilight rays sampled
-HIGHER_NODES = 12               # J nodes per view ray for orders >= 2
-HIGHER_SUBSTEPS = 6
+HIGHER_NODES = 24               # J nodes per view ray for orders >= 2
+HIGHER_SUBSTEPS = 4
+HIGHER_UNIFORM_SHARE = 0.2      # J / density falls fastest near the ground: cluster there
+SPHERE_BELOW_NODES = 17         # sphere-integral zeniths below the horizon band (angle-spaced)
+SPHERE_BAND_NODES = 49          # ... inside the band of horizons (cos-spaced)
+SPHERE_ABOVE_NODES = 25         # ... above it (angle-spaced, up to the zenith)
 SPHERE_AZIMUTHS = 64            # azimuth samples of the sphere integral (full circle)
 AMBIENT_HEIGHT_M = 20.0         # the sample's camera height for eq. (3)
 AMBIENT_ZENITHS = 24
@@ -180,11 +184,12 @@ class RayNodes:
     weight_mie: np.ndarray        # (rays, K, 3) same with rho_M
 
 
-def view_ray_nodes(params: AtmosphereParams, height: float, cos_view, above, n_nodes: int, substeps: int) -> RayNodes:
+def view_ray_nodes(params: AtmosphereParams, height: float, cos_view, above, n_nodes: int, substeps: int,
+                   uniform_share: float = NODE_UNIFORM_SHARE) -> RayNodes:
     r = np.full(len(cos_view), params.earth_radius + height)
     c = np.asarray(cos_view, dtype=np.float64)
     length = ray_length(params, r, c, ~np.asarray(above))
-    s = clustered_nodes(r, c, length, n_nodes, NODE_UNIFORM_SHARE)           # (rays, K)
+    s = clustered_nodes(r, c, length, n_nodes, uniform_share)                 # (rays, K)
     tau = np.linspace(0.0, 1.0, substeps + 1)
     s_fine = s[:, :-1, None] + (s[:, 1:, None] - s[:, :-1, None]) * tau    # (rays, K-1, M+1)
     h_fine = radius_along(r[:, None, None], c[:, None, None], s_fine) - params.earth_radius
@@ -276,12 +281,22 @@ def bake_single(params: AtmosphereParams, dims, trans_table: np.ndarray, progres
 # -- higher orders -----------------------------------------------------------------------
 
 def sphere_zenith_grid(atmosphere_height: float, earth_radius: float):
-    """Midpoint-rule nodes in cos zenith over [-1, 1], dense in the band where the horizon of
-    every height inside the atmosphere lies, so the radiance jump there costs little."""
+    """Nodes (ascending, poles included) and trapezoid weights in cos zenith over [-1, 1]:
+    evenly spaced in angle toward the poles (the Mie kernel is ~10 deg wide everywhere) and
+    dense in cos zenith in the band where the horizon of every height inside the atmosphere
+    lies, so the radiance jump there costs little."""
     c_low = float(par.cos_horizon(atmosphere_height, earth_radius)) - 0.05
-    edges = np.concatenate([np.linspace(-1.0, c_low, 17)[:-1], np.linspace(c_low, 0.05, 49)[:-1],
-                            np.linspace(0.05, 1.0, 25)])
-    return 0.5 * (edges[1:] + edges[:-1]), np.diff(edges)
+    c_high = 0.05
+    below = np.cos(np.linspace(math.pi, math.acos(c_low), SPHERE_BELOW_NODES))
+    band = np.linspace(c_low, c_high, SPHERE_BAND_NODES)
+    above = np.cos(np.linspace(math.acos(c_high), 0.0, SPHERE_ABOVE_NODES))
+    mu = np.concatenate([below[:-1], band[:-1], above])
+    mu[0], mu[-1] = -1.0, 1.0
+    gaps = np.diff(mu)
+    weights = np.zeros_like(mu)
+    weights[:-1] += 0.5 * gaps
+    weights[1:] += 0.5 * gaps
+    return mu, weights
 
 
 def _cosine_transforms(n_az: int):
@@ -381,7 +396,8 @@ def _integrate_order(params, dims_j, j_table, progress: Progress, stage: str):
         i, rays = tasks[task]
         cos_view_i, above_i = cos_view[i][rays], above[rays]
         n_rays = len(cos_view_i)
-        nodes = view_ray_nodes(params, heights[i], cos_view_i, above_i, HIGHER_NODES, HIGHER_SUBSTEPS)
+        nodes = view_ray_nodes(params, heights[i], cos_view_i, above_i, HIGHER_NODES, HIGHER_SUBSTEPS,
+                               HIGHER_UNIFORM_SHARE)
         r = params.earth_radius + heights[i]
         node_h = nodes.radius - params.earth_radius
         node_cos_view = (r * cos_view_i[:, None] + nodes.s) / nodes.radius

@@ -1,0 +1,120 @@
+"""Small helpers that keep node-group builders readable: math on sockets, not on nodes.
+
+Every helper takes sockets or plain numbers and returns the output socket of the node it adds,
+so a builder reads like the formula it implements.
+"""
+from __future__ import annotations
+
+import bpy
+
+
+class Graph:
+    """Wraps a node tree; nodes are laid out left to right in creation order."""
+
+    def __init__(self, tree: bpy.types.NodeTree):
+        self.tree = tree
+        self.nodes = tree.nodes
+        self.links = tree.links
+        self._column = 0
+
+    def node(self, kind: str, **props):
+        node = self.nodes.new(kind)
+        for name, value in props.items():
+            setattr(node, name, value)
+        node.location = (self._column * 40.0, -(len(self.nodes) % 12) * 60.0)
+        self._column += 1
+        return node
+
+    def feed(self, socket, value):
+        if isinstance(value, bpy.types.NodeSocket):
+            self.links.new(value, socket)
+        elif value is not None:
+            socket.default_value = value
+
+    # -- scalars -------------------------------------------------------------
+    def math(self, operation: str, a, b=None, c=None, clamp: bool = False):
+        node = self.node("ShaderNodeMath", operation=operation, use_clamp=clamp)
+        for socket, value in zip(node.inputs, (a, b, c)):
+            self.feed(socket, value)
+        return node.outputs[0]
+
+    def add(self, a, b):
+        return self.math("ADD", a, b)
+
+    def sub(self, a, b):
+        return self.math("SUBTRACT", a, b)
+
+    def mul(self, a, b):
+        return self.math("MULTIPLY", a, b)
+
+    def div(self, a, b):
+        return self.math("DIVIDE", a, b)
+
+    def mul_add(self, a, b, c):
+        return self.math("MULTIPLY_ADD", a, b, c)
+
+    def clamp(self, value, low, high):
+        node = self.node("ShaderNodeClamp")
+        self.feed(node.inputs["Value"], value)
+        self.feed(node.inputs["Min"], low)
+        self.feed(node.inputs["Max"], high)
+        return node.outputs[0]
+
+    def lerp(self, a, b, t):
+        """a + (b - a) t for scalars."""
+        return self.mul_add(self.sub(b, a), t, a)
+
+    # -- vectors and colours ---------------------------------------------------
+    def vmath(self, operation: str, a, b=None, c=None):
+        node = self.node("ShaderNodeVectorMath", operation=operation)
+        for socket, value in zip(node.inputs, (a, b, c)):
+            self.feed(socket, value)
+        return node.outputs["Value" if operation in {"DOT_PRODUCT", "LENGTH", "DISTANCE"} else "Vector"]
+
+    def combine(self, x, y, z):
+        node = self.node("ShaderNodeCombineXYZ")
+        for socket, value in zip(node.inputs, (x, y, z)):
+            self.feed(socket, value)
+        return node.outputs[0]
+
+    def separate(self, vector):
+        node = self.node("ShaderNodeSeparateXYZ")
+        self.feed(node.inputs[0], vector)
+        return node.outputs[0], node.outputs[1], node.outputs[2]
+
+    def vlerp(self, a, b, t):
+        """Component-wise a + (b - a) t; t a scalar socket."""
+        return self.vmath("MULTIPLY_ADD", self.vmath("SUBTRACT", b, a), self.combine(t, t, t), a)
+
+    def vscale(self, vector, scale):
+        node = self.node("ShaderNodeVectorMath", operation="SCALE")
+        self.feed(node.inputs[0], vector)
+        self.feed(node.inputs["Scale"], scale)
+        return node.outputs["Vector"]
+
+    def image(self, image: bpy.types.Image, uv):
+        node = self.node("ShaderNodeTexImage", image=image, interpolation="Linear", extension="EXTEND")
+        self.feed(node.inputs["Vector"], uv)
+        return node.outputs["Color"]
+
+
+def new_group(name: str, tree_type: str = "ShaderNodeTree"):
+    """A fresh node group named ``name`` (an older one of that name is replaced)."""
+    old = bpy.data.node_groups.get(name)
+    if old is not None:
+        bpy.data.node_groups.remove(old)
+    return bpy.data.node_groups.new(name, tree_type)
+
+
+def group_io(tree, inputs, outputs):
+    """Create interface sockets: lists of (name, socket_type, default or None)."""
+    for name, kind, default in inputs:
+        socket = tree.interface.new_socket(name, in_out="INPUT", socket_type=kind)
+        if default is not None:
+            socket.default_value = default
+    for name, kind, _ in outputs:
+        tree.interface.new_socket(name, in_out="OUTPUT", socket_type=kind)
+    graph = Graph(tree)
+    group_in = graph.node("NodeGroupInput")
+    group_out = graph.node("NodeGroupOutput")
+    return graph, group_in, group_out

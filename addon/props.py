@@ -1,0 +1,440 @@
+"""The add-on's settings: one PropertyGroup on the Scene (``scene.ols``).
+
+Every control of the sample's three GUI control sets (basic, additional, tone mapping), with
+the sample's names in snake_case and the Intel sample's defaults and ranges. The windowing-only
+controls (full screen, VSync) and the pure GPU-performance switches of the sample (cascade
+processing mode, min/max texture format) have no meaning in Blender and are left out.
+
+``atmosphere_params(settings)`` maps the settings to the table parameters of ``lut_gen``.
+"""
+import bpy
+import numpy as np
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty
+
+from ..lut_gen.atmosphere import DEFAULT_MIE_SCATTERING, DEFAULT_RAYLEIGH_SCATTERING, AtmosphereParams
+
+CONTROL_SETS = ("BASIC", "ADDITIONAL", "TONE_MAPPING")
+
+# The controls of each set, in the sample's panel order.
+PROPERTIES_BY_SET = {
+    "BASIC": [
+        "enable_light_scattering",
+        "enable_light_shafts",
+        "scattering_technique",
+        "shadow_map_resolution",
+        "num_integration_steps",
+        "epipolar_slices",
+        "samples_per_slice",
+        "initial_sample_step",
+        "epipole_sampling_density",
+        "refinement_threshold",
+        "scattering_scale",
+        "show_sampling",
+        "use_min_max_optimization",
+        "optimize_sample_locations",
+        "correct_depth_breaks",
+        "show_depth_breaks",
+        "lighting_only",
+    ],
+    "ADDITIONAL": [
+        "single_scattering_mode",
+        "multiple_scattering_mode",
+        "num_cascades",
+        "show_cascades",
+        "smooth_shadows",
+        "best_cascade_search",
+        "cascade_partitioning_factor",
+        "first_cascade_to_ray_march",
+        "extinction_evaluation_mode",
+        "refinement_criterion",
+        "use_custom_scattering_coeffs",
+        "rayleigh_color",
+        "mie_color",
+        "aerosol_density",
+        "aerosol_absorption",
+        "animate_sun",
+    ],
+    "TONE_MAPPING": [
+        "middle_gray",
+        "white_point",
+        "luminance_saturation",
+        "auto_exposure",
+        "tone_mapping_operator",
+        "light_adaptation",
+    ],
+}
+
+# Controls that act on the sky/terrain/tables today; every other control takes effect with the
+# compositor passes (light scattering, epipolar sampling, shadow maps, tone mapping).
+_LIVE_NOW = {
+    "scattering_scale",
+    "use_custom_scattering_coeffs",
+    "rayleigh_color",
+    "mie_color",
+    "aerosol_density",
+    "aerosol_absorption",
+    "animate_sun",
+}
+LATER_ISSUE = frozenset(name for names in PROPERTIES_BY_SET.values() for name in names) - _LIVE_NOW
+
+LATER_NOTE = "(arrives with the compositor passes)"
+
+# Mie scattering coefficient at aerosol density 1 for a white Mie colour (1/m).
+MIE_SCATTERING_SCALE = DEFAULT_MIE_SCATTERING[0]
+# The largest default Rayleigh coefficient (blue); the Rayleigh colour is relative to it.
+RAYLEIGH_SCATTERING_SCALE = max(DEFAULT_RAYLEIGH_SCATTERING)
+DEFAULT_RAYLEIGH_COLOR = tuple(c / RAYLEIGH_SCATTERING_SCALE for c in DEFAULT_RAYLEIGH_SCATTERING)
+DEFAULT_MIE_COLOR = (1.0, 1.0, 1.0)
+
+
+def _d(name, text):
+    """Tooltip for control ``name``; controls in LATER_ISSUE say when they take effect."""
+    return f"{text} {LATER_NOTE}" if name in LATER_ISSUE else text
+
+
+class OLSSettings(bpy.types.PropertyGroup):
+    """Outdoor Light Scattering settings (the sample's GUI), stored on the scene."""
+
+    control_set: EnumProperty(
+        name="Control Set",
+        description="Which of the sample's three control sets the panel shows",
+        items=(
+            ("BASIC", "Basic", "Light scattering, epipolar sampling and shadow map controls"),
+            ("ADDITIONAL", "Additional", "Scattering modes, shadow cascades and atmosphere media"),
+            ("TONE_MAPPING", "Tone Mapping", "HDR to LDR conversion controls"),
+        ),
+        default="BASIC",
+    )
+
+    # -- basic ------------------------------------------------------------------------------
+    enable_light_scattering: BoolProperty(
+        name="Enable Light Scattering",
+        description=_d("enable_light_scattering", "Enable or disable the light scattering effect"),
+        default=True,
+    )
+    enable_light_shafts: BoolProperty(
+        name="Enable Light Shafts",
+        description=_d("enable_light_shafts",
+                       "Render shafts of light. When disabled, a simpler algorithm that ignores "
+                       "shadows computes the scattering integral"),
+        default=True,
+    )
+    scattering_technique: EnumProperty(
+        name="Scattering Technique",
+        description=_d("scattering_technique", "How the scattering effect is calculated"),
+        items=(
+            ("EPIPOLAR_SAMPLING", "Epipolar Sampling",
+             "Calculate the scattering effect using epipolar sampling"),
+            ("BRUTE_FORCE", "Brute Force Ray Marching",
+             "Calculate the scattering effect for each screen pixel without 1D min/max tree "
+             "optimization: the reference ground-truth image"),
+        ),
+        default="EPIPOLAR_SAMPLING",
+    )
+    shadow_map_resolution: EnumProperty(
+        name="Shadow Map Resolution",
+        description=_d("shadow_map_resolution",
+                       "Resolution of the sun shadow map (the number of cascades is set in the "
+                       "additional controls)"),
+        items=(
+            ("512", "512 x 512", "512 x 512 shadow map"),
+            ("1024", "1024 x 1024", "1024 x 1024 shadow map"),
+            ("2048", "2048 x 2048", "2048 x 2048 shadow map"),
+            ("4096", "4096 x 4096", "4096 x 4096 shadow map"),
+        ),
+        default="1024",
+    )
+    num_integration_steps: IntProperty(
+        name="Num Integration Steps",
+        description=_d("num_integration_steps",
+                       "Number of steps of the numerical single scattering integral. Used only "
+                       "when light shafts are off and single scattering mode is Integration"),
+        default=30, min=5, max=100,
+    )
+    epipolar_slices: IntProperty(
+        name="Epipolar Slices",
+        description=_d("epipolar_slices",
+                       "Number of epipolar slices. More slices give higher quality at higher "
+                       "cost; at least half the largest image dimension looks good"),
+        default=512, min=32, max=2048,
+    )
+    samples_per_slice: IntProperty(
+        name="Total Samples in Slice",
+        description=_d("samples_per_slice",
+                       "Number of samples along each epipolar slice; at least half the largest "
+                       "image dimension looks good"),
+        default=256, min=32, max=2048,
+    )
+    initial_sample_step: IntProperty(
+        name="Initial Sample Step",
+        description=_d("initial_sample_step",
+                       "Step between the initial ray marching samples along each epipolar line. "
+                       "A lower step places more samples and gives higher quality"),
+        default=16, min=2, max=64,
+    )
+    epipole_sampling_density: IntProperty(
+        name="Epipole Sampling Density",
+        description=_d("epipole_sampling_density",
+                       "Additional increase of the initial ray marching sample density near the "
+                       "epipole, for the strong forward Mie scattering around the sun"),
+        default=2, min=1, max=32,
+    )
+    refinement_threshold: FloatProperty(
+        name="Refinement Threshold",
+        description=_d("refinement_threshold",
+                       "Refinement accuracy: a smaller threshold places more ray marching samples "
+                       "at discontinuities of light intensity"),
+        default=0.03, min=0.001, max=0.5, precision=3, step=0.1,
+    )
+    scattering_scale: FloatProperty(
+        name="Scattering Scale",
+        description="Intensity of the scattering effect (almost no effect with automatic "
+                    "exposure tone mapping)",
+        default=0.5, min=0.0, soft_max=2.0, max=100.0,
+    )
+    show_sampling: BoolProperty(
+        name="Show Sampling",
+        description=_d("show_sampling",
+                       "Visualize the epipolar sampling structure: thick red dots are ray marching "
+                       "samples, thin red dots interpolation samples"),
+        default=False,
+    )
+    use_min_max_optimization: BoolProperty(
+        name="1D Min/Max Optimization",
+        description=_d("use_min_max_optimization",
+                       "Use 1D min/max binary trees to accelerate ray marching"),
+        default=True,
+    )
+    optimize_sample_locations: BoolProperty(
+        name="Optimize Sample Locations",
+        description=_d("optimize_sample_locations", "Fix oversampling along short epipolar lines"),
+        default=True,
+    )
+    correct_depth_breaks: BoolProperty(
+        name="Correction at Depth Breaks",
+        description=_d("correct_depth_breaks",
+                       "Extra pass that ray marches the pixels whose scattering cannot be "
+                       "unwarped precisely from the epipolar image"),
+        default=False,
+    )
+    show_depth_breaks: BoolProperty(
+        name="Show Depth Breaks",
+        description=_d("show_depth_breaks",
+                       "Show in green the pixels the depth-break correction pass recomputes "
+                       "(only with Correction at Depth Breaks)"),
+        default=False,
+    )
+    lighting_only: BoolProperty(
+        name="Lighting Only",
+        description=_d("lighting_only", "Show the light scattering effects only"),
+        default=False,
+    )
+
+    # -- additional -------------------------------------------------------------------------
+    single_scattering_mode: EnumProperty(
+        name="Single Scattering",
+        description=_d("single_scattering_mode", "How single scattering is computed"),
+        items=(
+            ("NONE", "None", "Do not compute single scattering"),
+            ("INTEGRATION", "Integration",
+             "Compute single scattering with numerical integration during ray marching"),
+            ("LUT", "LUT",
+             "Compute single scattering with look-ups into the precomputed table: ray marching "
+             "only measures the lit length of the ray"),
+        ),
+        default="LUT",
+    )
+    multiple_scattering_mode: EnumProperty(
+        name="Multiple Scattering",
+        description=_d("multiple_scattering_mode", "How higher order scattering is added"),
+        items=(
+            ("NONE", "None", "Do not compute multiple scattering"),
+            ("OCCLUDED", "Occluded",
+             "Multiple scattering from the illuminated part of the view ray only"),
+            ("UNOCCLUDED", "Unoccluded",
+             "Higher order scattering from the whole view ray"),
+        ),
+        default="UNOCCLUDED",
+    )
+    num_cascades: IntProperty(
+        name="Num Cascades",
+        description=_d("num_cascades", "Number of shadow map cascades"),
+        default=6, min=1, max=8,
+    )
+    show_cascades: BoolProperty(
+        name="Show Cascades",
+        description=_d("show_cascades", "Visualize the shadow map cascades"),
+        default=False,
+    )
+    smooth_shadows: BoolProperty(
+        name="Smooth Shadows",
+        description=_d("smooth_shadows", "Soften shadow edges by averaging 5 PCF samples"),
+        default=True,
+    )
+    best_cascade_search: BoolProperty(
+        name="Best Cascade Search",
+        description=_d("best_cascade_search",
+                       "Use the smallest cascade a point projects into instead of the cascade "
+                       "depth ranges, for better shadow quality"),
+        default=True,
+    )
+    cascade_partitioning_factor: FloatProperty(
+        name="Partitioning Factor",
+        description=_d("cascade_partitioning_factor",
+                       "Blend between linear (0) and logarithmic (1) cascade distribution"),
+        default=0.95, min=0.0, max=1.0, subtype='FACTOR',
+    )
+    first_cascade_to_ray_march: IntProperty(
+        name="First Cascade to Ray March",
+        description=_d("first_cascade_to_ray_march",
+                       "Smallest cascade considered during ray marching; the one or two smallest "
+                       "can usually be skipped without visible loss"),
+        default=2, min=0, max=7,
+    )
+    extinction_evaluation_mode: EnumProperty(
+        name="Extinction Evaluation",
+        description=_d("extinction_evaluation_mode",
+                       "How extinction is evaluated per pixel (no effect on quality)"),
+        items=(
+            ("EPIPOLAR", "Epipolar",
+             "Extinction from the epipolar extinction image, unwarped per pixel (faster)"),
+            ("PER_PIXEL", "Per Pixel", "Analytical extinction evaluated for each pixel"),
+        ),
+        default="EPIPOLAR",
+    )
+    refinement_criterion: EnumProperty(
+        name="Refinement Criterion",
+        description=_d("refinement_criterion", "What decides where ray marching samples are refined"),
+        items=(
+            ("DEPTH", "Depth", "Refine where depth differs"),
+            ("INSCATTERING", "Inscattering",
+             "Refine where the coarse unshadowed inscattering differs (no banding near the "
+             "epipole in outer space views)"),
+        ),
+        default="INSCATTERING",
+    )
+    use_custom_scattering_coeffs: BoolProperty(
+        name="Use Custom Scattering Coeffs",
+        description="Set custom Rayleigh and Mie scattering coefficients with the colours below "
+                    "(the tables are re-baked)",
+        default=False,
+    )
+    rayleigh_color: FloatVectorProperty(
+        name="Rayleigh Color",
+        description="Rayleigh scattering coefficients relative to the default blue coefficient "
+                    "(the default colour gives the default air)",
+        subtype='COLOR', size=3, default=DEFAULT_RAYLEIGH_COLOR, min=0.0, soft_max=1.0, max=10.0,
+    )
+    mie_color: FloatVectorProperty(
+        name="Mie Color",
+        description="Mie scattering coefficients relative to the default aerosol (2e-5 per metre "
+                    "for white)",
+        subtype='COLOR', size=3, default=DEFAULT_MIE_COLOR, min=0.0, soft_max=1.0, max=10.0,
+    )
+    aerosol_density: FloatProperty(
+        name="Aerosol Density",
+        description="Aerosol (Mie) particle density relative to the default (the tables are re-baked)",
+        default=1.0, min=0.1, max=5.0,
+    )
+    aerosol_absorption: FloatProperty(
+        name="Aerosol Absorption",
+        description="Aerosol absorption relative to aerosol scattering: Mie extinction = "
+                    "scattering x (1 + absorption) (the tables are re-baked)",
+        default=0.1, min=0.0, max=5.0,
+    )
+    animate_sun: BoolProperty(
+        name="Animate Sun",
+        description="Animate the sun across the sky",
+        default=False,
+    )
+
+    # -- tone mapping -----------------------------------------------------------------------
+    middle_gray: FloatProperty(
+        name="Middle Gray (Key)",
+        description=_d("middle_gray",
+                       "Tone of the scene: larger values look brighter, smaller values dimmer"),
+        default=0.18, min=0.01, max=1.0,
+    )
+    white_point: FloatProperty(
+        name="White Point",
+        description=_d("white_point",
+                       "White point of the Reinhard Mod, Uncharted 2, Logarithmic and Adaptive "
+                       "Log operators"),
+        default=3.0, min=0.01, max=10.0,
+    )
+    luminance_saturation: FloatProperty(
+        name="Luminance Saturation",
+        description=_d("luminance_saturation",
+                       "Additional colour saturation of the Exp, Reinhard, Reinhard Mod, "
+                       "Logarithmic and Adaptive Log operators"),
+        default=1.0, min=0.1, max=2.0,
+    )
+    auto_exposure: BoolProperty(
+        name="Auto Exposure",
+        description=_d("auto_exposure",
+                       "Adjust exposure automatically from the log-average luminance of the scene"),
+        default=True,
+    )
+    tone_mapping_operator: EnumProperty(
+        name="Tone Mapping Operator",
+        description=_d("tone_mapping_operator", "HDR to LDR conversion operator"),
+        items=(
+            ("EXP", "Exp", "Exponential tone mapping operator"),
+            ("REINHARD", "Reinhard", "Basic Reinhard tone mapping operator"),
+            ("REINHARD_MOD", "Reinhard Mod", "Modified Reinhard tone mapping operator"),
+            ("UNCHARTED2", "Uncharted 2", "Tone mapping operator from Uncharted 2 (Hable)"),
+            ("FILMIC_ALU", "Filmic ALU", "Filmic tone mapping operator (Hable)"),
+            ("LOGARITHMIC", "Logarithmic", "Logarithmic tone mapping operator (Drago)"),
+            ("ADAPTIVE_LOG", "Adaptive Log", "Adaptive logarithmic tone mapping operator (Drago)"),
+        ),
+        default="UNCHARTED2",
+    )
+    light_adaptation: BoolProperty(
+        name="Light Adaptation",
+        description=_d("light_adaptation", "Simulate temporal light adaptation across frames"),
+        default=True,
+    )
+
+
+def _f32_value(value):
+    """The shortest decimal that round-trips a float32-stored value (what the user typed).
+
+    Blender stores float properties as float32: 0.1 reads back as 0.10000000149. Table
+    parameters (and so the bake cache key) use the decimal instead, so the panel's defaults
+    equal ``AtmosphereParams()`` and a value typed in the panel equals the same value given to
+    ``python -m lut_gen bake``.
+    """
+    return float(str(np.float32(value)))
+
+
+def _f32_color(color):
+    return tuple(_f32_value(c) for c in color)
+
+
+def atmosphere_params(settings) -> AtmosphereParams:
+    """Table parameters (``lut_gen.AtmosphereParams``) for an ``OLSSettings``.
+
+    Aerosol density and absorption map one to one. With custom scattering coefficients on, the
+    Rayleigh coefficients are ``max(default Rayleigh) * rayleigh_color`` (so the default colour
+    gives the default coefficients) and the Mie coefficients ``2e-5 * mie_color``; off, both are
+    the defaults. Everything else keeps ``AtmosphereParams`` defaults.
+    """
+    rayleigh = DEFAULT_RAYLEIGH_SCATTERING
+    mie = DEFAULT_MIE_SCATTERING
+    if settings.use_custom_scattering_coeffs:
+        color = _f32_color(settings.rayleigh_color)
+        if color != _f32_color(DEFAULT_RAYLEIGH_COLOR):
+            rayleigh = tuple(RAYLEIGH_SCATTERING_SCALE * c for c in color)
+        color = _f32_color(settings.mie_color)
+        if color != _f32_color(DEFAULT_MIE_COLOR):
+            mie = tuple(MIE_SCATTERING_SCALE * c for c in color)
+    return AtmosphereParams(
+        rayleigh_scattering=rayleigh,
+        mie_scattering=mie,
+        aerosol_density=_f32_value(settings.aerosol_density),
+        aerosol_absorption=_f32_value(settings.aerosol_absorption),
+    )
+
+
+CLASSES = (OLSSettings,)
+

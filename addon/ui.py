@@ -1,0 +1,93 @@
+"""The View3D sidebar panel (tab "Atmosphere"): the sample's three control sets."""
+import bpy
+
+from .props import LATER_ISSUE, PROPERTIES_BY_SET
+
+# (operator idname, button text, icon); written in addon/ops.py.
+OPERATORS = (
+    ("ols.setup_scene", "Set Up Scene", 'WORLD'),
+    ("ols.bake_luts", "Bake Tables", 'FILE_REFRESH'),
+    ("ols.render", "Render", 'RENDER_STILL'),
+)
+
+# Controls whose row is enabled only while another control is on.
+ENABLED_BY = {
+    "rayleigh_color": "use_custom_scattering_coeffs",
+    "mie_color": "use_custom_scattering_coeffs",
+}
+
+
+def operator_available(idname):
+    """True when the operator ``idname`` ("ols.bake_luts") is registered."""
+    module, name = idname.split(".", 1)
+    return hasattr(bpy.types, f"{module.upper()}_OT_{name}")
+
+
+def _runs(names):
+    """Split ``names`` into consecutive runs of (in LATER_ISSUE, [names])."""
+    runs = []
+    for name in names:
+        later = name in LATER_ISSUE
+        if runs and runs[-1][0] == later:
+            runs[-1][1].append(name)
+        else:
+            runs.append((later, [name]))
+    return runs
+
+
+def draw_settings(layout, settings):
+    """Draw the control-set drop-down and the controls of the selected set into ``layout``."""
+    layout.prop(settings, "control_set", text="")
+    names = PROPERTIES_BY_SET[settings.control_set]
+    if any(name in LATER_ISSUE for name in names):
+        layout.label(text="Greyed controls take effect with the compositor passes", icon='INFO')
+    col = layout.column()
+    col.use_property_split = True
+    col.use_property_decorate = False
+    for later, run in _runs(names):
+        sub = col.column()
+        # Greyed but editable: values are kept with the scene for when the passes arrive.
+        sub.active = not later
+        for name in run:
+            if name in ENABLED_BY:
+                row = sub.row()
+                row.enabled = bool(getattr(settings, ENABLED_BY[name]))
+                row.prop(settings, name)
+            else:
+                sub.prop(settings, name)
+
+
+def draw_operators(layout):
+    col = layout.column(align=True)
+    for idname, text, icon in OPERATORS:
+        if operator_available(idname):
+            col.operator(idname, text=text, icon=icon)
+        else:
+            row = col.row()
+            row.enabled = False
+            row.label(text=f"{text} (unavailable)", icon=icon)
+
+
+class OLS_PT_atmosphere(bpy.types.Panel):
+    """Outdoor Light Scattering: the sample's controls"""
+
+    bl_idname = "OLS_PT_atmosphere"
+    bl_label = "Outdoor Light Scattering"
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "Atmosphere"
+
+    @classmethod
+    def poll(cls, context):
+        scene = getattr(context, "scene", None)
+        return scene is not None and getattr(scene, "ols", None) is not None
+
+    def draw(self, context):
+        layout = self.layout
+        draw_settings(layout, context.scene.ols)
+        layout.separator()
+        draw_operators(layout)
+
+
+CLASSES = (OLS_PT_atmosphere,)
+
