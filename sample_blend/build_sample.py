@@ -459,9 +459,11 @@ def build_sample_scene(scene: bpy.types.Scene | None = None, elevation_deg: floa
 
 def _script_args(argv: list[str]) -> list[str]:
     """Arguments meant for this script: everything after ``--`` when present (Blender's
-    convention), else ``argv[1:]``."""
+    convention), else ``argv[1:]`` (nothing when run by the Blender executable)."""
     if "--" in argv:
         return argv[argv.index("--") + 1:]
+    if bpy.app.binary_path and argv and Path(argv[0]).name == Path(bpy.app.binary_path).name:
+        return []   # inside the Blender executable without "--": argv holds Blender's own flags
     return argv[1:]
 
 

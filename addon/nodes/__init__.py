@@ -1,0 +1,6 @@
+"""Node-group builders: one module per group, all on top of builder.Graph."""
+from .lookup import GROUP_NAME as LOOKUP_GROUP, build_lookup_group
+from .sky import GROUP_NAME as SKY_GROUP, build_sky_group
+from .terrain import GROUP_NAME as TERRAIN_GROUP, build_terrain_group
+
+GROUP_NAMES = (LOOKUP_GROUP, SKY_GROUP, TERRAIN_GROUP)

@@ -1,0 +1,1 @@
+"""Scene-side wiring: LUT images, the Sun lamp and camera, world and terrain materials."""

@@ -1,0 +1,47 @@
+"""Baked tables as Blender images: loaded from a bake directory (lut_gen's EXR files),
+named by bake key so that equal parameters share one set of images."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import bpy
+
+from ...lut_gen.exr_io import FILES, read_key
+
+IMAGE_PREFIX = "OLS"
+
+
+def image_name(table: str, key: str) -> str:
+    return f"{IMAGE_PREFIX} {table} {key[:8]}"
+
+
+def load_images(directory) -> dict:
+    """{table: bpy Image} for every file of the bake in ``directory``; reuses images already
+    loaded for the same bake key. Raises LutError (from lut_gen) for a missing or damaged bake."""
+    directory = Path(directory)
+    key = read_key(directory)
+    if key is None:
+        raise FileNotFoundError(f"{directory} holds no baked tables; run Bake Tables first")
+    images = {}
+    for table, filename in FILES.items():
+        path = directory / filename
+        if not path.exists():
+            raise FileNotFoundError(f"{path} is missing; bake the tables again")
+        name = image_name(table, key)
+        image = bpy.data.images.get(name)
+        if image is None or bpy.path.abspath(image.filepath) != str(path):
+            if image is not None:
+                bpy.data.images.remove(image)
+            image = bpy.data.images.load(str(path))
+            image.name = name
+        image.colorspace_settings.is_data = True      # raw numbers, no view transform
+        image.alpha_mode = "NONE"
+        images[table] = image
+    return images
+
+
+def release_unused_images():
+    """Remove OLS images no longer used by any node tree (after a re-bake swapped them)."""
+    for image in list(bpy.data.images):
+        if image.name.startswith(IMAGE_PREFIX + " ") and image.users == 0:
+            bpy.data.images.remove(image)
