@@ -18,13 +18,14 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import struct
 import tempfile
 from pathlib import Path
 from typing import Optional
 
 import numpy as np
 
-from . import atlas
+from . import atlas, exr_min
 from .atmosphere import AtmosphereParams
 from .sampling import Luts
 
@@ -57,6 +58,27 @@ def bake_key(params: AtmosphereParams, dims, optical_depth_dims, ambient_size: i
 
 def luts_key(luts: Luts) -> str:
     return bake_key(luts.params, luts.dims, luts.optical_depth.shape[:2], luts.ambient.shape[0], luts.orders)
+
+
+def _openexr_or_none():
+    try:
+        import OpenEXR
+    except ImportError:
+        return None
+    return OpenEXR
+
+
+def _write_rgb(OpenEXR, path, rgb_top_down, strings: dict):
+    """ZIP-compressed through OpenEXR when it is installed; else lut_gen's own uncompressed
+    writer (inside Blender). Both read back bit-exactly."""
+    pixels = np.ascontiguousarray(rgb_top_down, dtype=np.float32)
+    if OpenEXR is None:
+        with open(path, "wb") as f:
+            f.write(exr_min.encode_rgb_float(pixels, strings))
+        return
+    header = dict(strings, compression=OpenEXR.ZIP_COMPRESSION, type=OpenEXR.scanlineimage)
+    with OpenEXR.File(header, {"RGB": pixels}) as exr:
+        exr.write(str(path))
 
 
 def _require_openexr():
@@ -107,9 +129,19 @@ def check_output_directory(directory, key: str, *, overwrite: bool = False) -> P
     return directory
 
 
+def read_header_params(directory):
+    """(AtmosphereParams, dims) of the bake in ``directory`` from a header alone (cheap)."""
+    header = _read_header(Path(directory) / FILES["multiple"])
+    try:
+        params = AtmosphereParams.from_dict(json.loads(header[PREFIX + "params"])).validate()
+        return params, tuple(json.loads(header[PREFIX + "dims"]))
+    except (KeyError, ValueError, TypeError) as exc:
+        raise LutError(f"{directory} has an invalid header ({exc}); re-bake it") from exc
+
+
 def save(luts: Luts, directory, *, overwrite: bool = False) -> Path:
     """Write every table of ``luts`` to ``directory`` (created if missing)."""
-    OpenEXR = _require_openexr()
+    OpenEXR = _openexr_or_none()
     directory = Path(directory)
     key = luts_key(luts)
     check_output_directory(directory, key, overwrite=overwrite)
@@ -127,13 +159,11 @@ def save(luts: Luts, directory, *, overwrite: bool = False) -> Path:
         for name, image in _images(luts).items():
             header = dict(common)
             header.update({PREFIX + "table": name, PREFIX + "content_sha256": _content_hash(image),
-                           PREFIX + "shape": json.dumps(list(image.shape)),
-                           "compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage})
+                           PREFIX + "shape": json.dumps(list(image.shape))})
             fd, tmp = tempfile.mkstemp(prefix=f".{FILES[name]}.", suffix=".tmp", dir=directory)
             os.close(fd)
             staged.append((tmp, directory / FILES[name]))
-            with OpenEXR.File(header, {"RGB": np.ascontiguousarray(image[::-1], dtype=np.float32)}) as exr:
-                exr.write(tmp)
+            _write_rgb(OpenEXR, tmp, image[::-1], header)
             os.chmod(tmp, 0o666 & ~_umask())
         for tmp, final in staged:
             os.replace(tmp, final)
@@ -160,11 +190,10 @@ def _existing_key(directory: Path):
 
 
 def _read_header(path: Path) -> dict:
-    OpenEXR = _require_openexr()
+    """String attributes of the header (pure Python: also works in Blender, without OpenEXR)."""
     try:
-        with OpenEXR.File(str(path), header_only=True) as exr:
-            return dict(exr.header())
-    except Exception as exc:
+        return exr_min.read_string_attributes(path)
+    except (OSError, ValueError, IndexError, struct.error) as exc:
         raise LutError(f"{path} is not a readable EXR file ({exc}); re-bake with python -m lut_gen bake") from exc
 
 

@@ -137,3 +137,22 @@ def test_cached_bake_hits_the_second_time(tmp_path):
     again, _, hit = lut_gen.cached_bake(resolution=(8, 16, 8, 4), orders=2, directory=tmp_path / "c")
     assert hit
     np.testing.assert_array_equal(again.multiple, luts.multiple)
+
+
+def test_builtin_writer_and_header_reader_agree_with_openexr(small_luts, tmp_path, monkeypatch):
+    """Inside Blender there is no OpenEXR package: lut_gen writes uncompressed EXRs itself.
+    OpenEXR must read them bit-exactly, and the pure header reader must match OpenEXR's."""
+    from lut_gen import exr_io, exr_min
+    monkeypatch.setattr(exr_io, "_openexr_or_none", lambda: None)
+    lut_gen.save(small_luts, tmp_path / "plain")
+    monkeypatch.undo()
+    loaded = lut_gen.load(tmp_path / "plain")                 # pixels read by OpenEXR
+    np.testing.assert_array_equal(loaded.multiple, small_luts.multiple)
+    np.testing.assert_array_equal(loaded.optical_depth, small_luts.optical_depth)
+    lut_gen.save(small_luts, tmp_path / "zip")
+    for name in FILES.values():
+        with OpenEXR.File(str(tmp_path / "zip" / name)) as exr:
+            want = {k: v for k, v in dict(exr.header()).items() if k.startswith("ols.")}
+        for folder in ("zip", "plain"):
+            got = exr_min.read_string_attributes(tmp_path / folder / name)
+            assert {k: v for k, v in got.items() if k.startswith("ols.")} == want

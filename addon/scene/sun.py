@@ -1,0 +1,78 @@
+"""The scene's Sun lamp: the one source of truth for the sun direction (DESIGN.md).
+
+Its colour follows the atmosphere's extinction at the scene origin, recomputed when the lamp
+turns (depsgraph / frame handlers), from the optical-depth image already in memory.
+"""
+from __future__ import annotations
+
+import math
+
+import bpy
+import numpy as np
+
+from ...lut_gen.atmosphere import AtmosphereParams
+
+SUN_NAME = "OLS Sun"
+EXTRATERRESTRIAL_STRENGTH = 10.0     # the sample's extraterrestrial sun intensity
+SUN_ANGLE = math.radians(0.545)
+COLOUR_TOLERANCE = 1e-4
+
+
+def find_sun(scene):
+    """The scene's Sun lamp: the active object if it is one, else the first one found."""
+    active = bpy.context.view_layer.objects.active if bpy.context.view_layer else None
+    if active is not None and active.type == "LIGHT" and active.data.type == "SUN" and active.name in scene.objects:
+        return active
+    for obj in scene.objects:
+        if obj.type == "LIGHT" and obj.data.type == "SUN":
+            return obj
+    return None
+
+
+def create_sun(scene, elevation_deg=8.0, azimuth_deg=0.0):
+    data = bpy.data.lights.new(SUN_NAME, "SUN")
+    data.energy = EXTRATERRESTRIAL_STRENGTH
+    data.angle = SUN_ANGLE
+    sun = bpy.data.objects.new(SUN_NAME, data)
+    scene.collection.objects.link(sun)
+    set_sun_angles(sun, elevation_deg, azimuth_deg)
+    return sun
+
+
+def set_sun_angles(sun, elevation_deg, azimuth_deg):
+    """Point the lamp so the direction toward the sun has this elevation and azimuth (from +Y
+    toward +X). The lamp shines along its local -Z, so local +Z points at the sun."""
+    sun.rotation_mode = "XYZ"
+    sun.rotation_euler = (math.radians(90.0 - elevation_deg), 0.0, math.radians(180.0 - azimuth_deg))
+
+
+def direction_to_sun(sun) -> np.ndarray:
+    return np.array(sun.matrix_world.to_3x3().col[2], dtype=np.float64)
+
+
+class OriginTransmittance:
+    """T(origin -> top) for a sun direction, from the optical-depth image (numpy, per bake)."""
+
+    def __init__(self, image, params: AtmosphereParams):
+        width, height = image.size
+        pixels = np.empty(width * height * 4, dtype=np.float32)
+        image.pixels.foreach_get(pixels)
+        # Image x = height axis, y = cos zenith axis (see lut_gen.exr_io); row 0 at the bottom.
+        self.ground_row = pixels.reshape(height, width, 4)[:, 0, :3].astype(np.float64)
+        self.extinction = params.extinction_matrix()
+
+    def __call__(self, cos_sun_zenith: float) -> np.ndarray:
+        n = len(self.ground_row)
+        x = float(np.clip((cos_sun_zenith * 0.5 + 0.5) * n - 0.5, 0, n - 1))
+        i0 = min(int(x), n - 2)
+        net = self.ground_row[i0] * (1 - (x - i0)) + self.ground_row[i0 + 1] * (x - i0)
+        return np.exp(-np.minimum(net @ self.extinction, 80.0))
+
+
+def update_sun_colour(sun, transmittance: OriginTransmittance) -> bool:
+    """Set the lamp colour to the extinction at the origin; True when it changed."""
+    colour = transmittance(direction_to_sun(sun)[2])
+    if np.abs(np.array(sun.data.color) - colour).max() <= COLOUR_TOLERANCE:
+        return False
+    sun.data.color = colour.tolist()
+    return True

@@ -1,0 +1,131 @@
+"""Wire a scene: the LUT images, the three node groups, the world, terrain materials, drivers.
+
+``check_scene`` validates everything first and ``wire_scene`` only then changes the scene, so
+a failure leaves it as it was. The previous world and material slots are remembered on the
+scene/objects so ``unwire_scene`` restores them.
+"""
+from __future__ import annotations
+
+import bpy
+
+from ... import lut_gen
+from .. import nodes
+from . import drivers, luts, sun as sun_lamps
+
+WORLD_NAME = "OLS World"
+TERRAIN_MATERIAL = "OLS Terrain"
+PREVIOUS_WORLD = "ols_previous_world"
+PREVIOUS_MATERIAL = "ols_previous_material"
+WIRED_KEY = "ols_bake_key"
+
+
+class SetupError(Exception):
+    """What is wrong with the scene and how to fix it."""
+
+
+def check_scene(scene):
+    if scene.camera is None:
+        raise SetupError("the scene has no camera: add one (Add > Camera) and make it the scene camera")
+
+
+def build_groups(bake_dir):
+    """Load the bake's images and (re)build the node groups; returns (images, luts params, dims)."""
+    images = luts.load_images(bake_dir)
+    stored = lut_gen.exr_io.read_header_params(bake_dir)
+    params, dims = stored
+    nodes.build_lookup_group(images["multiple"], dims, params)
+    nodes.build_sky_group(images["optical_depth"], params)
+    nodes.build_terrain_group(images["optical_depth"], images["ambient"], params)
+    return images, params
+
+
+def _albedo_of(material):
+    if material is not None and material.node_tree is not None:
+        for node in material.node_tree.nodes:
+            if node.type == "BSDF_PRINCIPLED":
+                return tuple(node.inputs["Base Color"].default_value)
+    return (0.2, 0.2, 0.2, 1.0)
+
+
+def wire_world(scene, sun, light_scene: float):
+    world = bpy.data.worlds.get(WORLD_NAME) or bpy.data.worlds.new(WORLD_NAME)
+    if scene.world is not None and scene.world != world:
+        scene[PREVIOUS_WORLD] = scene.world.name
+    scene.world = world
+    if world.node_tree is None:
+        world.use_nodes = True
+    tree = world.node_tree
+    drivers.remove_drivers(tree)
+    tree.nodes.clear()
+    group = tree.nodes.new("ShaderNodeGroup")
+    group.node_tree = bpy.data.node_groups[nodes.SKY_GROUP]
+    group.name = nodes.SKY_GROUP
+    output = tree.nodes.new("ShaderNodeOutputWorld")
+    output.location = (300, 0)
+    tree.links.new(group.outputs["Background"], output.inputs["Surface"])
+    group.inputs["Light Scene"].default_value = light_scene
+    drivers.drive_sun_direction(group.inputs["Sun Direction"], sun)
+    drivers.drive_from_lamp(group.inputs["Sun Strength"], sun, "energy")
+    drivers.drive_from_lamp(group.inputs["Sun Angle"], sun, "angle")
+    drivers.drive_camera_height(group.inputs["Camera Height"], scene)
+    drivers.drive_scene_setting(group.inputs["Scattering Scale"], scene, "scattering_scale")
+    return world
+
+
+def wire_terrain(obj, sun):
+    """Give ``obj`` an "OLS Terrain" material that keeps the albedo of its old material."""
+    previous = obj.active_material
+    material = bpy.data.materials.new(f"{TERRAIN_MATERIAL} {obj.name}")
+    material.use_nodes = True
+    tree = material.node_tree
+    tree.nodes.clear()
+    group = tree.nodes.new("ShaderNodeGroup")
+    group.node_tree = bpy.data.node_groups[nodes.TERRAIN_GROUP]
+    group.name = nodes.TERRAIN_GROUP
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    output.location = (300, 0)
+    tree.links.new(group.outputs["Shader"], output.inputs["Surface"])
+    group.inputs["Albedo"].default_value = _albedo_of(previous)
+    drivers.drive_sun_direction(group.inputs["Sun Direction"], sun)
+    drivers.drive_from_lamp(group.inputs["Sun Strength"], sun, "energy")
+    for channel in range(3):
+        drivers.drive_from_lamp(group.inputs["Origin Transmittance"], sun, "color", index=channel)
+    if previous is not None and not previous.name.startswith(TERRAIN_MATERIAL):
+        obj[PREVIOUS_MATERIAL] = previous.name
+    if obj.material_slots:
+        obj.material_slots[obj.active_material_index].material = material
+    else:
+        obj.data.materials.append(material)
+    return material
+
+
+def wire_scene(scene, bake_dir, terrain_objects=(), sun=None):
+    """Everything ``Set up scene`` does, for a bake directory that already holds the tables.
+    Returns the sun lamp used."""
+    check_scene(scene)
+    images, params = build_groups(bake_dir)        # may raise: nothing in the scene changed yet
+    sun = sun or sun_lamps.find_sun(scene) or sun_lamps.create_sun(scene)
+    terrain_objects = [o for o in terrain_objects if o.type == "MESH"]
+    # With terrain materials the sky lights the scene through their ambient term (the sample's
+    # model); the world then lights only camera and glossy rays, so nothing counts twice.
+    wire_world(scene, sun, light_scene=0.0 if terrain_objects else 1.0)
+    for obj in terrain_objects:
+        wire_terrain(obj, sun)
+    scene[WIRED_KEY] = lut_gen.exr_io.read_key(bake_dir)
+    sun_lamps.update_sun_colour(sun, sun_lamps.OriginTransmittance(images["optical_depth"], params))
+    luts.release_unused_images()
+    return sun
+
+
+def unwire_scene(scene):
+    """Restore the world and materials the scene had before wiring."""
+    previous = scene.get(PREVIOUS_WORLD)
+    scene.world = bpy.data.worlds.get(previous) if previous else None
+    for obj in scene.objects:
+        name = obj.get(PREVIOUS_MATERIAL)
+        if name and name in bpy.data.materials and obj.material_slots:
+            obj.material_slots[obj.active_material_index].material = bpy.data.materials[name]
+            del obj[PREVIOUS_MATERIAL]
+    for key in (PREVIOUS_WORLD, WIRED_KEY):
+        if key in scene:
+            del scene[key]
