@@ -45,7 +45,8 @@ TERRAIN_NAME = "OLS Terrain"
 TERRAIN_MATERIAL_NAME = "OLS Terrain Base"
 CAMERA_NAME = "OLS Camera"
 SUN_NAME = "OLS Sun"
-WORLD_NAME = "OLS World"
+SUN_STRENGTH = 10.0           # extraterrestrial sun intensity of the sample (the add-on's convention)
+WORLD_NAME = "Sample Placeholder World"   # the add-on wires its own "OLS World"
 
 # Layout, as fractions of the terrain size (the terrain spans [-size/2, size/2] in x and y).
 CAMERA_Y_FRACTION = -0.45      # camera 0.05 * size from the -Y edge
@@ -396,7 +397,7 @@ def build_sun(scene: bpy.types.Scene, elevation_deg: float = 8.0,
     direction toward the sun has the given elevation and azimuth (from +Y toward +X)."""
     _remove_object(SUN_NAME)
     light = bpy.data.lights.new(SUN_NAME, type="SUN")
-    light.energy = 1.0
+    light.energy = SUN_STRENGTH
     light.angle = math.radians(SUN_ANGLE_DEG)
     light.color = (1.0, 1.0, 1.0)
     obj = bpy.data.objects.new(SUN_NAME, light)
@@ -507,6 +508,10 @@ def main(argv: list[str] | None = None) -> int:
                   "not registered; enable the Outdoor Light Scattering extension first (e.g. run "
                   "inside Blender with the extension installed)", file=sys.stderr)
             return 2
+        terrain = bpy.data.objects[TERRAIN_NAME]
+        for obj in bpy.context.scene.objects:
+            obj.select_set(obj == terrain)
+        bpy.context.view_layer.objects.active = terrain
         result = bpy.ops.ols.setup_scene()
         if "FINISHED" not in result:
             print(f"build_sample: error: bpy.ops.ols.setup_scene() returned {set(result)}",

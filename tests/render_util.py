@@ -55,6 +55,8 @@ def render_rgb(scene, path: Path) -> np.ndarray:
     """Render the still and return its (height, width, 3) linear RGB, row 0 at the top."""
     import bpy
     import OpenEXR
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
     scene.render.filepath = str(path)
     bpy.ops.render.render(write_still=True)
     with OpenEXR.File(str(path)) as exr:

@@ -227,7 +227,7 @@ def test_sun_helpers_invert_each_other(fresh_scene, elevation, azimuth):
 
 def test_sun_lamp_settings(fresh_scene):
     sun = bs.build_sun(fresh_scene)
-    assert sun.data.energy == pytest.approx(1.0)
+    assert sun.data.energy == pytest.approx(10.0)
     assert sun.data.angle == pytest.approx(math.radians(0.545))
     el, az = bs.elevation_azimuth(bs.direction_to_sun(sun))
     assert el == pytest.approx(8.0) and az == pytest.approx(0.0, abs=1e-9)

@@ -17,6 +17,7 @@ TERRAIN_MATERIAL = "OLS Terrain"
 PREVIOUS_WORLD = "ols_previous_world"
 PREVIOUS_MATERIAL = "ols_previous_material"
 WIRED_KEY = "ols_bake_key"
+GENERATED = "ols_generated"      # marks materials this module made
 
 
 class SetupError(Exception):
@@ -89,8 +90,9 @@ def wire_terrain(obj, sun):
     drivers.drive_sun_direction(group.inputs["Sun Direction"], sun)
     drivers.drive_from_lamp(group.inputs["Sun Strength"], sun, "energy")
     for channel in range(3):
-        drivers.drive_from_lamp(group.inputs["Origin Transmittance"], sun, "color", index=channel)
-    if previous is not None and not previous.name.startswith(TERRAIN_MATERIAL):
+        drivers.drive_from_lamp(group.inputs["Origin Transmittance"], sun, f"color[{channel}]", index=channel)
+    material[GENERATED] = True
+    if previous is not None and not previous.get(GENERATED):
         obj[PREVIOUS_MATERIAL] = previous.name
     if obj.material_slots:
         obj.material_slots[obj.active_material_index].material = material

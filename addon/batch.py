@@ -1,0 +1,147 @@
+"""Headless rendering: build or open a scene, wire it, render it to an image file.
+
+Run through scripts/render.py, with Blender or with the bpy module:
+
+    blender --background sample_blend/sample.blend --python scripts/render.py -- --output out.png
+    .venv/bin/python scripts/render.py --sample --output build/sample.png
+
+Exit status 0 on success; 1 with one "error: ..." line on stderr for anything wrong.
+"""
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+from pathlib import Path
+
+import bpy
+
+from . import props
+from .scene import sun as sun_lamps
+from .scene import wiring
+
+ENGINES = {"CYCLES": "CYCLES", "EEVEE": "BLENDER_EEVEE"}
+
+
+class BatchError(Exception):
+    pass
+
+
+def parse_args(argv):
+    parser = argparse.ArgumentParser(prog="render.py", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--blend", type=Path, help="open this .blend first (default: the open file)")
+    parser.add_argument("--sample", action="store_true", help="build the sample terrain scene first")
+    parser.add_argument("--engine", choices=sorted(ENGINES), default="CYCLES")
+    parser.add_argument("--resolution", default=None, help="WIDTHxHEIGHT (default: the scene's)")
+    parser.add_argument("--samples", type=int, default=None, help="render samples (default: the scene's)")
+    parser.add_argument("--sun-elevation", type=float, default=None, help="degrees above the horizon")
+    parser.add_argument("--sun-azimuth", type=float, default=None, help="degrees from +Y toward +X")
+    parser.add_argument("--output", type=Path, required=True,
+                        help="image path; with --frames, '#' characters are replaced by the frame")
+    parser.add_argument("--frames", default=None, help="START-END: render an animation's frames")
+    parser.add_argument("--tables", choices=["default", "draft"], default="default")
+    return parser.parse_args(argv)
+
+
+def egl_available() -> bool:
+    """EEVEE aborts the whole process without EGL: probe it in a throw-away process."""
+    probe = ("import bpy; s=bpy.context.scene; s.render.engine='BLENDER_EEVEE'; "
+             "s.render.resolution_x=s.render.resolution_y=8; bpy.ops.render.render()")
+    try:
+        result = subprocess.run([sys.executable, "-c", probe], capture_output=True, timeout=120)
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    return result.returncode == 0
+
+
+def prepare(args):
+    if args.blend:
+        if not args.blend.exists():
+            raise BatchError(f"{args.blend} does not exist")
+        bpy.ops.wm.open_mainfile(filepath=str(args.blend))
+    if args.sample:
+        from importlib import util
+        path = Path(__file__).resolve().parent.parent / "sample_blend" / "build_sample.py"
+        spec = util.spec_from_file_location("ols_build_sample", path)
+        module = util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        objects = module.build_sample_scene(bpy.context.scene)
+        for obj in bpy.context.scene.objects:
+            obj.select_set(obj == objects["terrain"])
+        bpy.context.view_layer.objects.active = objects["terrain"]
+    scene = bpy.context.scene
+    if scene.camera is None:
+        raise BatchError("the scene has no camera: add one and make it the scene camera")
+    if sun_lamps.find_sun(scene) is None:
+        raise BatchError("the scene has no Sun lamp: add one (or run Set Up Scene in Blender)")
+    return scene
+
+
+def apply_options(scene, args):
+    scene.render.engine = ENGINES[args.engine]
+    if args.resolution:
+        try:
+            width, height = (int(v) for v in args.resolution.lower().split("x"))
+        except ValueError:
+            raise BatchError(f"--resolution must be WIDTHxHEIGHT, got {args.resolution!r}") from None
+        scene.render.resolution_x, scene.render.resolution_y = width, height
+        scene.render.resolution_percentage = 100
+    if args.samples is not None:
+        if args.engine == "CYCLES":
+            scene.cycles.samples = args.samples
+        else:
+            scene.eevee.taa_render_samples = args.samples
+    sun = sun_lamps.find_sun(scene)
+    if args.sun_elevation is not None or args.sun_azimuth is not None:
+        direction = sun_lamps.direction_to_sun(sun)
+        import math
+        elevation = math.degrees(math.asin(max(-1.0, min(1.0, direction[2]))))
+        azimuth = math.degrees(math.atan2(direction[0], direction[1]))
+        sun_lamps.set_sun_angles(sun, args.sun_elevation if args.sun_elevation is not None else elevation,
+                                 args.sun_azimuth if args.sun_azimuth is not None else azimuth)
+
+
+def render(scene, args):
+    output = args.output.resolve()
+    try:
+        output.parent.mkdir(parents=True, exist_ok=True)
+        probe = output.parent / f".{output.name}.probe"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise BatchError(f"cannot write {output}: {exc.strerror or exc}") from None
+    scene.render.image_settings.file_format = "PNG"
+    if args.frames:
+        try:
+            start, end = (int(v) for v in args.frames.split("-"))
+        except ValueError:
+            raise BatchError(f"--frames must be START-END, got {args.frames!r}") from None
+        scene.frame_start, scene.frame_end = start, end
+        scene.render.filepath = str(output)
+        bpy.ops.render.render(animation=True)
+    else:
+        scene.render.filepath = str(output)
+        bpy.ops.render.render(write_still=True)
+    return output
+
+
+def main(argv=None) -> int:
+    args = parse_args(sys.argv[1:] if argv is None else argv)
+    try:
+        if args.engine == "EEVEE" and not egl_available():
+            raise BatchError("EEVEE needs EGL, which is missing here (Debian: apt install libegl1 "
+                             "libegl-mesa0 libgl1-mesa-dri); use --engine CYCLES")
+        scene = prepare(args)
+        apply_options(scene, args)
+        if not scene.get(wiring.WIRED_KEY):
+            result = bpy.ops.ols.setup_scene(resolution=args.tables)
+            if "FINISHED" not in result:
+                raise BatchError("setting up the scene failed (see the message above)")
+        output = render(scene, args)
+    except (BatchError, wiring.SetupError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    print(f"rendered {output}")
+    return 0

@@ -1,0 +1,263 @@
+"""Operators (bake tables, set up the scene, render) and the app handlers that keep the Sun
+lamp's colour and animation current. The bpy layer only: the work lives in scene/ and lut_gen."""
+from __future__ import annotations
+
+import threading
+import traceback
+from pathlib import Path
+
+import bpy
+from bpy.app.handlers import persistent
+from bpy.props import BoolProperty, EnumProperty, StringProperty
+
+from .. import lut_gen
+from . import props
+from .scene import animation, luts, wiring
+from .scene import sun as sun_lamps
+
+RESOLUTION_ITEMS = [("default", "Default", "The sample's 32 x 128 x 64 x 16 tables (~10-20 s)"),
+                    ("draft", "Draft", "Half every dimension (~2 s)")]
+
+
+def bake_directory(params, resolution="default") -> Path:
+    return lut_gen.default_cache_root() / lut_gen.cache.key_for(params, resolution)
+
+
+def bake_if_needed(params, resolution, progress=None) -> Path:
+    directory = bake_directory(params, resolution)
+    if lut_gen.exr_io.read_key(directory) != directory.name:
+        luts_ = lut_gen.bake(params, resolution=resolution, progress=progress)
+        lut_gen.save(luts_, directory, overwrite=True)
+    return directory
+
+
+def terrain_candidates(context):
+    return [o for o in context.selected_objects if o.type == "MESH"]
+
+
+def swap_in(scene, directory):
+    """Point an already wired scene at another bake (after a re-bake): rebuild the groups."""
+    wiring.build_groups(directory)
+    scene[wiring.WIRED_KEY] = directory.name
+    luts.release_unused_images()
+
+
+class OLS_OT_bake_luts(bpy.types.Operator):
+    """Bake the scattering tables for the current atmosphere settings (cached by parameters)"""
+    bl_idname = "ols.bake_luts"
+    bl_label = "Bake Tables"
+    bl_options = {"REGISTER", "UNDO"}
+
+    resolution: EnumProperty(name="Resolution", items=RESOLUTION_ITEMS, default="default")
+    setup_after: BoolProperty(name="Set Up Scene After", default=False, options={"HIDDEN", "SKIP_SAVE"})
+
+    def _finish(self, context, directory):
+        scene = context.scene
+        try:
+            if self.setup_after:
+                wiring.wire_scene(scene, directory, terrain_candidates(context))
+            elif scene.get(wiring.WIRED_KEY):
+                swap_in(scene, directory)
+        except (wiring.SetupError, lut_gen.LutError, OSError, RuntimeError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Tables ready: {directory}")
+        return {"FINISHED"}
+
+    def execute(self, context):
+        """Blocking bake (scripts and background mode) with the window manager's progress."""
+        try:
+            params = props.atmosphere_params(context.scene.ols).validate()
+        except ValueError as exc:
+            self.report({"ERROR"}, f"Invalid atmosphere setting: {exc}")
+            return {"CANCELLED"}
+        wm = context.window_manager
+        wm.progress_begin(0, 100)
+        try:
+            directory = bake_if_needed(params, self.resolution,
+                                       progress=lambda stage, f: wm.progress_update(int(f * 100)))
+        except (lut_gen.LutError, OSError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        finally:
+            wm.progress_end()
+        return self._finish(context, directory)
+
+    def invoke(self, context, event):
+        """In the UI: bake on a worker thread, keep Blender responsive, swap in when done."""
+        try:
+            self._params = props.atmosphere_params(context.scene.ols).validate()
+        except ValueError as exc:
+            self.report({"ERROR"}, f"Invalid atmosphere setting: {exc}")
+            return {"CANCELLED"}
+        directory = bake_directory(self._params, self.resolution)
+        if lut_gen.exr_io.read_key(directory) == directory.name:
+            return self._finish(context, directory)
+        self._state = {"stage": "starting", "fraction": 0.0, "error": None, "done": False}
+
+        def work():
+            try:
+                bake_if_needed(self._params, self.resolution,
+                               progress=lambda stage, f: self._state.update(stage=stage, fraction=f))
+            except Exception as exc:   # reported on the main thread
+                self._state["error"] = f"{exc}"
+                traceback.print_exc()
+            self._state["done"] = True
+
+        self._thread = threading.Thread(target=work, daemon=True)
+        self._thread.start()
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.2, window=context.window)
+        wm.progress_begin(0, 100)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        wm = context.window_manager
+        wm.progress_update(int(self._state["fraction"] * 100))
+        context.workspace.status_text_set(f"Baking atmosphere tables: {self._state['stage']} "
+                                          f"{self._state['fraction'] * 100:.0f}%")
+        if not self._state["done"]:
+            return {"RUNNING_MODAL"}
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+        if self._state["error"]:
+            self.report({"ERROR"}, f"Baking failed: {self._state['error']}")
+            return {"CANCELLED"}
+        return self._finish(context, bake_directory(self._params, self.resolution))
+
+
+class OLS_OT_setup_scene(bpy.types.Operator):
+    """Add (or adopt) a Sun lamp, bake or load the tables, set the OLS Sky world and give the
+    selected meshes the OLS Terrain material"""
+    bl_idname = "ols.setup_scene"
+    bl_label = "Set Up Scene"
+    bl_options = {"REGISTER", "UNDO"}
+
+    resolution: EnumProperty(name="Resolution", items=RESOLUTION_ITEMS, default="default")
+
+    def execute(self, context):
+        scene = context.scene
+        try:
+            wiring.check_scene(scene)
+            params = props.atmosphere_params(scene.ols).validate()
+            directory = bake_if_needed(params, self.resolution)
+            wiring.wire_scene(scene, directory, terrain_candidates(context))
+        except (wiring.SetupError, lut_gen.LutError, OSError, ValueError, RuntimeError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, "Scene wired to the atmosphere tables")
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        try:
+            wiring.check_scene(context.scene)
+            params = props.atmosphere_params(context.scene.ols).validate()
+        except (wiring.SetupError, ValueError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        if lut_gen.exr_io.read_key(bake_directory(params, self.resolution)) is None:
+            # Not baked yet: bake in the background, then set up.
+            return bpy.ops.ols.bake_luts("INVOKE_DEFAULT", resolution=self.resolution, setup_after=True)
+        return self.execute(context)
+
+
+class OLS_OT_render(bpy.types.Operator):
+    """Render the scene camera to an image file"""
+    bl_idname = "ols.render"
+    bl_label = "Render"
+
+    filepath: StringProperty(name="File Path", subtype="FILE_PATH", default="//ols_render.png")
+
+    def execute(self, context):
+        scene = context.scene
+        if scene.camera is None:
+            self.report({"ERROR"}, "The scene has no camera: add one and make it the scene camera")
+            return {"CANCELLED"}
+        if sun_lamps.find_sun(scene) is None:
+            self.report({"ERROR"}, "The scene has no Sun lamp: run Set Up Scene")
+            return {"CANCELLED"}
+        path = Path(bpy.path.abspath(self.filepath))
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            with open(path.parent / f".{path.name}.probe", "wb"):
+                pass
+            (path.parent / f".{path.name}.probe").unlink()
+        except OSError as exc:
+            self.report({"ERROR"}, f"Cannot write {path}: {exc.strerror or exc}")
+            return {"CANCELLED"}
+        previous = scene.render.filepath
+        scene.render.filepath = str(path)
+        try:
+            bpy.ops.render.render(write_still=True)
+        finally:
+            scene.render.filepath = previous
+        self.report({"INFO"}, f"Rendered {path}")
+        return {"FINISHED"}
+
+
+# -- handlers ---------------------------------------------------------------------------------
+
+_transmittance_cache = {}
+
+
+def _origin_transmittance(scene):
+    key = scene.get(wiring.WIRED_KEY)
+    if not key:
+        return None
+    if key not in _transmittance_cache:
+        image = bpy.data.images.get(luts.image_name("optical_depth", key))
+        if image is None:
+            return None
+        try:
+            params, _ = lut_gen.exr_io.read_header_params(Path(bpy.path.abspath(image.filepath)).parent)
+        except (lut_gen.LutError, OSError):
+            return None
+        _transmittance_cache.clear()
+        _transmittance_cache[key] = sun_lamps.OriginTransmittance(image, params)
+    return _transmittance_cache[key]
+
+
+def _update_scene(scene):
+    sun = sun_lamps.find_sun(scene)
+    if sun is None or not scene.get(wiring.WIRED_KEY):
+        return
+    if scene.ols.animate_sun:
+        elevation, azimuth = animation.sun_angles_for_frame(scene.frame_current, scene.frame_start, scene.frame_end)
+        sun_lamps.set_sun_angles(sun, elevation, azimuth)
+    transmittance = _origin_transmittance(scene)
+    if transmittance is not None:
+        sun_lamps.update_sun_colour(sun, transmittance)
+
+
+@persistent
+def on_frame_change(scene, depsgraph=None):
+    _update_scene(scene)
+
+
+@persistent
+def on_depsgraph_update(scene, depsgraph=None):
+    _update_scene(scene)
+
+
+HANDLERS = ((bpy.app.handlers.frame_change_pre, on_frame_change),
+            (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update))
+
+
+def register_handlers():
+    for handlers, function in HANDLERS:
+        if function not in handlers:
+            handlers.append(function)
+
+
+def unregister_handlers():
+    for handlers, function in HANDLERS:
+        while function in handlers:
+            handlers.remove(function)
+    _transmittance_cache.clear()
+
+
+CLASSES = (OLS_OT_bake_luts, OLS_OT_setup_scene, OLS_OT_render)

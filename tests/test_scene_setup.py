@@ -1,0 +1,163 @@
+"""Operators and scene wiring: Set Up Scene on the sample, the terrain group vs its numpy twin,
+bad input leaving the scene as it was."""
+import math
+from importlib import import_module
+
+import numpy as np
+import pytest
+
+from render_util import empty_scene, render_rgb, save_png
+
+bpy = pytest.importorskip("bpy")
+
+
+@pytest.fixture(scope="module")
+def cache_dir(tmp_path_factory):
+    return tmp_path_factory.mktemp("ols_cache")
+
+
+@pytest.fixture
+def addon(addon_package, cache_dir, monkeypatch):
+    monkeypatch.setenv("OLS_CACHE_DIR", str(cache_dir))
+    return addon_package
+
+
+def module(pkg, name):
+    return import_module(f"{pkg.__name__}.{name}")
+
+
+def add_plane(name, size, location, rotation=(0.0, 0.0, 0.0)):
+    bpy.ops.mesh.primitive_plane_add(size=size, location=location, rotation=rotation)
+    obj = bpy.context.active_object
+    obj.name = name
+    material = bpy.data.materials.new(name + " base")
+    material.use_nodes = True
+    material.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.5, 0.4, 0.3, 1.0)
+    obj.data.materials.append(material)
+    return obj
+
+
+def test_terrain_group_matches_numpy_twin(addon, tmp_path):
+    scene = empty_scene(width=96, height=48, samples=64)
+    flat = add_plane("flat", 200.0, (-150.0, 0.0, 0.0))
+    tilted = add_plane("tilted", 200.0, (150.0, 0.0, 80.0), rotation=(math.radians(-40.0), 0.0, 0.0))
+    cam_data = bpy.data.cameras.new("top")
+    cam_data.type = "ORTHO"
+    cam_data.ortho_scale = 600.0
+    camera = bpy.data.objects.new("top", cam_data)
+    camera.location = (0.0, 0.0, 1000.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    sun_mod = module(addon, "addon.scene.sun")
+    sun = sun_mod.create_sun(scene, elevation_deg=30.0, azimuth_deg=0.0)
+    ops = module(addon, "addon.ops")
+    params = addon.lut_gen.AtmosphereParams()
+    directory = ops.bake_if_needed(params, "draft")
+    module(addon, "addon.scene.wiring").wire_scene(scene, directory, [flat, tilted], sun)
+    rendered = render_rgb(scene, tmp_path / "terrain.exr")
+    save_png(tmp_path / "terrain.png", rendered, exposure=2.0)
+
+    luts = addon.lut_gen.load(directory)
+    to_sun = sun_mod.direction_to_sun(sun)
+    strength, albedo = sun.data.energy, np.array([0.5, 0.4, 0.3])
+
+    def twin(position, normal):
+        up = position + np.array([0, 0, params.earth_radius])
+        height = np.linalg.norm(up) - params.earth_radius
+        up /= np.linalg.norm(up)
+        cos_sun = up @ to_sun
+        direct = luts.transmittance_to_top(height, cos_sun) * max(normal @ to_sun, 0.0)
+        ambient = luts.ambient_skylight(cos_sun) * np.clip((1 + normal @ up) / 2, 0, 1)
+        return albedo / math.pi * strength * (direct + ambient)
+
+    # Pixel columns of each plane's centre region (ortho: 600 m over 96 px, centred at x = 0).
+    def region(x_centre, half_width=40.0, half_height=40.0):
+        cols = slice(int((x_centre - half_width + 300) / 600 * 96), int((x_centre + half_width + 300) / 600 * 96))
+        rows = slice(int((300 / 2 - half_height) / 300 * 48), int((300 / 2 + half_height) / 300 * 48))
+        return rendered[rows, cols].reshape(-1, 3)
+
+    tilted_normal = np.array(tilted.matrix_world.to_3x3().col[2])
+    for pixels, want in ((region(-150.0), twin(np.array([-150.0, 0, 0]), np.array([0.0, 0, 1]))),
+                         (region(150.0), twin(np.array([150.0, 0, 80.0]), tilted_normal))):
+        err = np.abs(pixels - want) / want
+        assert np.median(err) <= 0.03, (np.median(pixels, axis=0), want)
+    assert region(150.0).mean() > region(-150.0).mean()      # the tilted plane faces the sun
+
+
+def load_sample_builder():
+    import importlib.util
+    from pathlib import Path
+    path = Path(__file__).resolve().parent.parent / "sample_blend" / "build_sample.py"
+    spec = importlib.util.spec_from_file_location("ols_build_sample", path)
+    builder = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(builder)
+    return builder
+
+
+def test_setup_scene_on_the_sample(addon, tmp_path):
+    build = load_sample_builder()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    objects = build.build_sample_scene(bpy.context.scene, elevation_deg=15.0, azimuth_deg=35.0, resolution=64)
+    scene = bpy.context.scene
+    previous_world = scene.world
+    for obj in scene.objects:
+        obj.select_set(obj == objects["terrain"])
+    assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+    wiring = module(addon, "addon.scene.wiring")
+    assert scene.world.name == wiring.WORLD_NAME and scene[wiring.PREVIOUS_WORLD] == previous_world.name
+    assert objects["terrain"].active_material.name.startswith(wiring.TERRAIN_MATERIAL)
+    drivers = scene.world.node_tree.animation_data.drivers
+    assert len(drivers) == 7 and all(d.driver.is_valid for d in drivers)
+    colour = np.array(objects["sun"].data.color)
+    assert colour[0] > colour[1] > colour[2] > 0            # low sun: reddened by the atmosphere
+    # Rotating the sun re-colours it (depsgraph handler) and moves the sky's sun input.
+    module(addon, "addon.scene.sun").set_sun_angles(objects["sun"], 60.0, 35.0)
+    bpy.context.view_layer.update()
+    assert np.array(objects["sun"].data.color)[2] > colour[2] * 1.5
+    sky = scene.world.node_tree.nodes["OLS Sky"]
+    assert sky.inputs["Sun Direction"].default_value[2] == pytest.approx(math.sin(math.radians(60.0)), abs=1e-4)
+
+    scene.render.resolution_x, scene.render.resolution_y = 96, 54
+    scene.cycles.samples = 8
+    scene.view_settings.view_transform = "Standard"
+    rendered = render_rgb(scene, tmp_path / "sample.exr")
+    save_png(tmp_path / "sample.png", rendered, exposure=3.0)
+    assert np.isfinite(rendered).all() and rendered.min() >= 0
+    sky_rows, ground_rows = rendered[:8].reshape(-1, 3), rendered[-10:].reshape(-1, 3)
+    assert sky_rows.mean(axis=0)[2] > sky_rows.mean(axis=0)[0]           # blue sky
+    assert ground_rows.mean() > 0.01                                       # lit terrain, not black
+
+    wiring.unwire_scene(scene)
+    assert scene.world == previous_world
+    assert objects["terrain"].active_material.name == "OLS Terrain Base"
+
+
+def test_setup_without_camera_changes_nothing(addon):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    worlds, lights = len(bpy.data.worlds), len(bpy.data.lights)
+    with pytest.raises(RuntimeError, match="no camera"):
+        bpy.ops.ols.setup_scene(resolution="draft")
+    assert scene.world is None and len(bpy.data.worlds) == worlds and len(bpy.data.lights) == lights
+
+
+def test_render_operator_reports_bad_paths(addon, tmp_path):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    camera = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    module(addon, "addon.scene.sun").create_sun(scene)
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(RuntimeError, match="Cannot write"):
+        bpy.ops.ols.render(filepath=str(tmp_path / "file" / "out.png"))
+
+
+def test_animate_sun_follows_the_day(addon):
+    animation = module(addon, "addon.scene.animation")
+    noon = animation.sun_angles_for_frame(50, 0, 100)
+    morning = animation.sun_angles_for_frame(10, 0, 100)
+    evening = animation.sun_angles_for_frame(90, 0, 100)
+    assert noon[0] == pytest.approx(45.0, abs=0.01) and abs(noon[1]) < 0.01
+    assert morning[0] < noon[0] and evening[0] == pytest.approx(morning[0], abs=1e-6)
+    assert morning[1] * evening[1] < 0                                       # east, then west
