@@ -87,6 +87,27 @@ DEFAULT_RAYLEIGH_COLOR = tuple(c / RAYLEIGH_SCATTERING_SCALE for c in DEFAULT_RA
 DEFAULT_MIE_COLOR = (1.0, 1.0, 1.0)
 
 
+REBAKE_DELAY_S = 0.75     # wait for a slider drag to settle before re-baking
+
+
+def _rebake_soon(settings, context):
+    """Changing the media re-bakes the tables in the background and swaps them into a wired
+    scene (interactive sessions only; scripts call bpy.ops.ols.bake_luts themselves)."""
+    if bpy.app.background or context.scene is None or not context.scene.get("ols_bake_key"):
+        return
+    if bpy.app.timers.is_registered(_start_rebake):
+        bpy.app.timers.unregister(_start_rebake)
+    bpy.app.timers.register(_start_rebake, first_interval=REBAKE_DELAY_S)
+
+
+def _start_rebake():
+    window = next(iter(bpy.context.window_manager.windows), None)
+    if window is not None:
+        with bpy.context.temp_override(window=window):
+            bpy.ops.ols.bake_luts("INVOKE_DEFAULT")
+    return None
+
+
 def _d(name, text):
     """Tooltip for control ``name``; controls in LATER_ISSUE say when they take effect."""
     return f"{text} {LATER_NOTE}" if name in LATER_ISSUE else text
@@ -318,29 +339,34 @@ class OLSSettings(bpy.types.PropertyGroup):
         description="Set custom Rayleigh and Mie scattering coefficients with the colours below "
                     "(the tables are re-baked)",
         default=False,
+        update=_rebake_soon,
     )
     rayleigh_color: FloatVectorProperty(
         name="Rayleigh Color",
         description="Rayleigh scattering coefficients relative to the default blue coefficient "
                     "(the default colour gives the default air)",
         subtype='COLOR', size=3, default=DEFAULT_RAYLEIGH_COLOR, min=0.0, soft_max=1.0, max=10.0,
+        update=_rebake_soon,
     )
     mie_color: FloatVectorProperty(
         name="Mie Color",
         description="Mie scattering coefficients relative to the default aerosol (2e-5 per metre "
                     "for white)",
         subtype='COLOR', size=3, default=DEFAULT_MIE_COLOR, min=0.0, soft_max=1.0, max=10.0,
+        update=_rebake_soon,
     )
     aerosol_density: FloatProperty(
         name="Aerosol Density",
         description="Aerosol (Mie) particle density relative to the default (the tables are re-baked)",
         default=1.0, min=0.1, max=5.0,
+        update=_rebake_soon,
     )
     aerosol_absorption: FloatProperty(
         name="Aerosol Absorption",
         description="Aerosol absorption relative to aerosol scattering: Mie extinction = "
                     "scattering x (1 + absorption) (the tables are re-baked)",
         default=0.1, min=0.0, max=5.0,
+        update=_rebake_soon,
     )
     animate_sun: BoolProperty(
         name="Animate Sun",

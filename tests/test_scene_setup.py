@@ -161,3 +161,30 @@ def test_animate_sun_follows_the_day(addon):
     assert noon[0] == pytest.approx(45.0, abs=0.01) and abs(noon[1]) < 0.01
     assert morning[0] < noon[0] and evening[0] == pytest.approx(morning[0], abs=1e-6)
     assert morning[1] * evening[1] < 0                                       # east, then west
+
+
+def test_rebake_swaps_new_tables_into_a_wired_scene(addon):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    build = load_sample_builder()
+    objects = build.build_sample_scene(bpy.context.scene, resolution=32)
+    scene = bpy.context.scene
+    for obj in scene.objects:
+        obj.select_set(obj == objects["terrain"])
+    assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+    wiring = module(addon, "addon.scene.wiring")
+    old_key = scene[wiring.WIRED_KEY]
+    sky_node = scene.world.node_tree.nodes["OLS Sky"]
+    scene.ols.aerosol_density = 3.0
+    assert bpy.ops.ols.bake_luts(resolution="draft") == {"FINISHED"}
+    new_key = scene[wiring.WIRED_KEY]
+    assert new_key != old_key
+    lookup = bpy.data.node_groups["OLS Scattering Lookup"]
+    used = {n.image.name for n in lookup.nodes if n.type == "TEX_IMAGE"}
+    assert used == {f"OLS multiple {new_key[:8]}"}
+    # The wiring survived the rebuild: same group, links and drivers.
+    assert sky_node.node_tree == bpy.data.node_groups["OLS Sky"]
+    assert sky_node.outputs["Background"].is_linked
+    assert all(d.driver.is_valid for d in scene.world.node_tree.animation_data.drivers)
+    terrain_node = objects["terrain"].active_material.node_tree.nodes["OLS Terrain"]
+    assert terrain_node.node_tree == bpy.data.node_groups["OLS Terrain"] and terrain_node.outputs[0].is_linked
+    assert not any(i.name.startswith(f"OLS multiple {old_key[:8]}") for i in bpy.data.images)

@@ -99,21 +99,31 @@ class Graph:
 
 
 def new_group(name: str, tree_type: str = "ShaderNodeTree"):
-    """A fresh node group named ``name`` (an older one of that name is replaced)."""
-    old = bpy.data.node_groups.get(name)
-    if old is not None:
-        bpy.data.node_groups.remove(old)
-    return bpy.data.node_groups.new(name, tree_type)
+    """The node group ``name``, emptied for a rebuild. An existing group is reused in place, so
+    the group nodes, links and drivers that point at it survive a rebuild (e.g. a re-bake)."""
+    tree = bpy.data.node_groups.get(name)
+    if tree is None:
+        return bpy.data.node_groups.new(name, tree_type)
+    if tree.animation_data is not None:
+        tree.animation_data_clear()
+    tree.nodes.clear()
+    return tree
 
 
 def group_io(tree, inputs, outputs):
-    """Create interface sockets: lists of (name, socket_type, default or None)."""
-    for name, kind, default in inputs:
-        socket = tree.interface.new_socket(name, in_out="INPUT", socket_type=kind)
-        if default is not None:
-            socket.default_value = default
-    for name, kind, _ in outputs:
-        tree.interface.new_socket(name, in_out="OUTPUT", socket_type=kind)
+    """Interface sockets (lists of (name, socket_type, default or None)) and the group's input
+    and output nodes. An interface that already matches is kept as it is."""
+    wanted = [(name, "INPUT", kind) for name, kind, _ in inputs] + [(name, "OUTPUT", kind) for name, kind, _ in outputs]
+    current = [(item.name, item.in_out, item.socket_type) for item in tree.interface.items_tree
+               if item.item_type == "SOCKET"]
+    if sorted(current) != sorted(wanted):
+        tree.interface.clear()
+        for name, kind, default in inputs:
+            socket = tree.interface.new_socket(name, in_out="INPUT", socket_type=kind)
+            if default is not None:
+                socket.default_value = default
+        for name, kind, _ in outputs:
+            tree.interface.new_socket(name, in_out="OUTPUT", socket_type=kind)
     graph = Graph(tree)
     group_in = graph.node("NodeGroupInput")
     group_out = graph.node("NodeGroupOutput")
