@@ -75,9 +75,8 @@ def main():
 
     ols_world = scene.world
     ols_time = timed_render(scene, args.repeats)
-    scene.world.node_tree.nodes["OLS Sky"].inputs["Light Scene"].default_value = 1.0
+    wiring.wire_world(scene, sun, light_scene=1.0)
     ols_lit_time = timed_render(scene, args.repeats)
-    scene.world.node_tree.nodes["OLS Sky"].inputs["Light Scene"].default_value = 0.0
     scene.world = sky_texture_world(scene, sun)
     sky_time = timed_render(scene, args.repeats)
     scene.world = ols_world

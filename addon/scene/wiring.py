@@ -65,6 +65,10 @@ def wire_world(scene, sun, light_scene: float):
     output.location = (300, 0)
     tree.links.new(group.outputs["Background"], output.inputs["Surface"])
     group.inputs["Light Scene"].default_value = light_scene
+    # When the world does not light the scene, Cycles need not sample it as a light at all.
+    world.cycles.sampling_method = "AUTOMATIC" if light_scene > 0 else "NONE"
+    for ray in ("diffuse", "scatter", "transmission"):
+        setattr(world.cycles_visibility, ray, light_scene > 0)
     drivers.drive_sun_direction(group.inputs["Sun Direction"], sun)
     drivers.drive_from_lamp(group.inputs["Sun Strength"], sun, "energy")
     drivers.drive_from_lamp(group.inputs["Sun Angle"], sun, "angle")
