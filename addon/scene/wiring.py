@@ -48,6 +48,19 @@ def _albedo_of(material):
     return (0.2, 0.2, 0.2, 1.0)
 
 
+def _group_into_output(tree, group_name: str, output_type: str, group_socket: str):
+    """Replace ``tree``'s nodes (and drivers) by the named group feeding an output node."""
+    drivers.remove_drivers(tree)
+    tree.nodes.clear()
+    group = tree.nodes.new("ShaderNodeGroup")
+    group.node_tree = bpy.data.node_groups[group_name]
+    group.name = group_name
+    output = tree.nodes.new(output_type)
+    output.location = (300, 0)
+    tree.links.new(group.outputs[group_socket], output.inputs["Surface"])
+    return group
+
+
 def wire_world(scene, sun, light_scene: float):
     world = bpy.data.worlds.get(WORLD_NAME) or bpy.data.worlds.new(WORLD_NAME)
     if scene.world is not None and scene.world != world:
@@ -55,15 +68,7 @@ def wire_world(scene, sun, light_scene: float):
     scene.world = world
     if world.node_tree is None:
         world.use_nodes = True
-    tree = world.node_tree
-    drivers.remove_drivers(tree)
-    tree.nodes.clear()
-    group = tree.nodes.new("ShaderNodeGroup")
-    group.node_tree = bpy.data.node_groups[nodes.SKY_GROUP]
-    group.name = nodes.SKY_GROUP
-    output = tree.nodes.new("ShaderNodeOutputWorld")
-    output.location = (300, 0)
-    tree.links.new(group.outputs["Background"], output.inputs["Surface"])
+    group = _group_into_output(world.node_tree, nodes.SKY_GROUP, "ShaderNodeOutputWorld", "Background")
     group.inputs["Light Scene"].default_value = light_scene
     # When the world does not light the scene, Cycles need not sample it as a light at all.
     world.cycles.sampling_method = "AUTOMATIC" if light_scene > 0 else "NONE"
@@ -82,14 +87,7 @@ def wire_terrain(obj, sun):
     previous = obj.active_material
     material = bpy.data.materials.new(f"{TERRAIN_MATERIAL} {obj.name}")
     material.use_nodes = True
-    tree = material.node_tree
-    tree.nodes.clear()
-    group = tree.nodes.new("ShaderNodeGroup")
-    group.node_tree = bpy.data.node_groups[nodes.TERRAIN_GROUP]
-    group.name = nodes.TERRAIN_GROUP
-    output = tree.nodes.new("ShaderNodeOutputMaterial")
-    output.location = (300, 0)
-    tree.links.new(group.outputs["Shader"], output.inputs["Surface"])
+    group = _group_into_output(material.node_tree, nodes.TERRAIN_GROUP, "ShaderNodeOutputMaterial", "Shader")
     group.inputs["Albedo"].default_value = _albedo_of(previous)
     drivers.drive_sun_direction(group.inputs["Sun Direction"], sun)
     drivers.drive_from_lamp(group.inputs["Sun Strength"], sun, "energy")
