@@ -104,6 +104,7 @@ def apply_options(scene, args):
 
 
 def render(scene, args):
+    wiring.match_engine(scene)
     output = args.output.resolve()
     try:
         output.parent.mkdir(parents=True, exist_ok=True)

@@ -37,7 +37,7 @@ def terrain_candidates(context):
 
 def swap_in(scene, directory):
     """Point an already wired scene at another bake (after a re-bake): rebuild the groups."""
-    wiring.build_groups(directory)
+    wiring.build_groups(directory, scene.render.engine)
     scene[wiring.WIRED_KEY] = directory.name
     luts.release_unused_images()
 
@@ -225,6 +225,10 @@ def _update_scene(scene):
     sun = sun_lamps.find_sun(scene)
     if sun is None or not scene.get(wiring.WIRED_KEY):
         return
+    try:
+        wiring.match_engine(scene)
+    except (lut_gen.LutError, OSError) as exc:
+        print(f"Outdoor Light Scattering: cannot rebuild the sky for {scene.render.engine}: {exc}")
     if scene.ols.animate_sun:
         elevation, azimuth = animation.sun_angles_for_frame(scene.frame_current, scene.frame_start, scene.frame_end)
         sun_lamps.set_sun_angles(sun, elevation, azimuth)

@@ -1,4 +1,5 @@
 """Node-group builders: one module per group, all on top of builder.Graph."""
+from . import lookup
 from .lookup import GROUP_NAME as LOOKUP_GROUP, build_lookup_group
 from .sky import GROUP_NAME as SKY_GROUP, build_sky_group
 from .terrain import GROUP_NAME as TERRAIN_GROUP, build_terrain_group

@@ -92,8 +92,8 @@ class Graph:
         self.feed(node.inputs["Scale"], scale)
         return node.outputs["Vector"]
 
-    def image(self, image: bpy.types.Image, uv):
-        node = self.node("ShaderNodeTexImage", image=image, interpolation="Linear", extension="EXTEND")
+    def image(self, image: bpy.types.Image, uv, interpolation: str = "Linear"):
+        node = self.node("ShaderNodeTexImage", image=image, interpolation=interpolation, extension="EXTEND")
         self.feed(node.inputs["Vector"], uv)
         return node.outputs["Color"]
 

@@ -53,18 +53,44 @@ def sun_view_coordinate(g, cos_sun_view, n_t):
     return g.mul(g.mul_add(shaped, 0.5, 0.5), n_t - 1)
 
 
-def lower_node(g, x, n):
-    """(i0, weight of i0 + 1) for linear interpolation on an n-node axis, as axis_weights."""
+def even_odd_nodes(g, x, n):
+    """The even and the odd node next to x with their linear-interpolation weights.
+
+    Same result as blending floor(x) and floor(x) + 1, but each node index only jumps where
+    its own weight is zero (the even one at odd x, the odd one at even x). A GPU picks mip
+    levels from texture-coordinate derivatives, so a tile index that jumps where it still
+    matters (floor) draws seam lines in EEVEE; a jump under zero weight cannot show."""
     x = g.clamp(x, 0.0, n - 1)
-    i0 = g.math("MINIMUM", g.math("FLOOR", x), max(n - 2, 0))
-    return i0, g.sub(x, i0)
+    even = g.math("MINIMUM", g.mul(g.math("FLOOR", g.mul(g.add(x, 1.0), 0.5)), 2.0), n - 1 - (n - 1) % 2)
+    odd = g.math("MINIMUM", g.add(g.mul(g.math("FLOOR", g.mul(x, 0.5)), 2.0), 1.0), max(n - 1 - n % 2, 0))
+    weight = lambda node: g.math("MAXIMUM", g.sub(1.0, g.math("ABSOLUTE", g.sub(x, node))), 0.0)
+    return (even, weight(even)), (odd, weight(odd))
 
 
-def build_lookup_group(image, dims, params):
-    """(Re)build the group for the scattering atlas ``image`` with table sizes ``dims``."""
+FILTERING = ("HARDWARE", "MANUAL")
+
+
+def lower_node(g, x, n):
+    """(floor node, weight of the next node) on an n-node axis, as lut_gen's axis_weights."""
+    x = g.clamp(x, 0.0, n - 1)
+    low = g.math("MINIMUM", g.math("FLOOR", x), max(n - 2, 0))
+    return low, g.sub(x, low)
+
+
+def build_lookup_group(image, dims, params, filtering="HARDWARE"):
+    """(Re)build the group for the scattering atlas ``image`` with table sizes ``dims``.
+
+    ``filtering``: "HARDWARE" blends the two in-tile axes with the texture unit (4 fetches;
+    Cycles, which has no mipmaps). "MANUAL" fetches texel centres with Closest interpolation and
+    blends them in the node tree (16 fetches): GPU engines (EEVEE) pick mip levels from
+    texture-coordinate derivatives, which are large where eq. (5) is steep (just below the
+    horizon), and a mipmapped fetch there mixes neighbouring tiles."""
+    if filtering not in FILTERING:
+        raise ValueError(f"filtering must be one of {FILTERING}, got {filtering!r}")
     n_h, n_a, n_s, n_t = dims
     width, height = n_t * n_a, n_h * n_s
     tree = new_group(GROUP_NAME)
+    tree["ols_filtering"] = filtering
     g, gin, gout = group_io(tree,
                             [("Height", "NodeSocketFloat", 0.0), ("Cos View Zenith", "NodeSocketFloat", 1.0),
                              ("Cos Sun Zenith", "NodeSocketFloat", 1.0), ("Cos Sun View", "NodeSocketFloat", 1.0)],
@@ -73,21 +99,37 @@ def build_lookup_group(image, dims, params):
     x_a = view_zenith_coordinate(g, gin.outputs["Cos View Zenith"], h, n_a, params.earth_radius)
     x_s = sun_zenith_coordinate(g, gin.outputs["Cos Sun Zenith"], n_s)
     x_t = sun_view_coordinate(g, gin.outputs["Cos Sun View"], n_t)
-    i_h, w_h = lower_node(g, x_h, n_h)
-    i_t, w_t = lower_node(g, x_t, n_t)
-    # In-tile texel centres: u = (i_t n_a + x_a + 0.5) / W, v = (i_h n_s + x_s + 0.5) / H.
-    in_tile_u = g.add(x_a, 0.5)
-    in_tile_v = g.add(x_s, 0.5)
 
-    def tile(dh, dt):
-        u = g.div(g.mul_add(g.add(i_t, dt), n_a, in_tile_u), width)
-        v = g.div(g.mul_add(g.add(i_h, dh), n_s, in_tile_v), height)
-        return g.image(image, g.combine(u, v, 0.0))
+    def fetch(u_texel, v_texel, interpolation):
+        """Texture value at texel coordinates (pixel units, centres at +0.5)."""
+        uv = g.combine(g.div(u_texel, width), g.div(v_texel, height), 0.0)
+        return g.image(image, uv, interpolation=interpolation)
 
-    low_h = g.vlerp(tile(0, 0), tile(0, 1), w_t)
-    high_h = g.vlerp(tile(1, 0), tile(1, 1), w_t)
-    stored = g.vlerp(low_h, high_h, w_h)
+    if filtering == "HARDWARE":
+        def tile(i_h, i_t):
+            return fetch(g.mul_add(i_t, n_a, g.add(x_a, 0.5)), g.mul_add(i_h, n_s, g.add(x_s, 0.5)), "Linear")
+    else:
+        a0, w_a = lower_node(g, x_a, n_a)
+        s0, w_s = lower_node(g, x_s, n_s)
+
+        def tile(i_h, i_t):
+            u0 = g.mul_add(i_t, n_a, g.add(a0, 0.5))
+            v0 = g.mul_add(i_h, n_s, g.add(s0, 0.5))
+            u1, v1 = g.add(u0, 1.0), g.add(v0, 1.0)
+            low = g.vlerp(fetch(u0, v0, "Closest"), fetch(u1, v0, "Closest"), w_a)
+            high = g.vlerp(fetch(u0, v1, "Closest"), fetch(u1, v1, "Closest"), w_a)
+            return g.vlerp(low, high, w_s)
+
+    stored = None
+    for i_h, w_h in even_odd_nodes(g, x_h, n_h):
+        for i_t, w_t in even_odd_nodes(g, x_t, n_t):
+            term = g.vscale(tile(i_h, i_t), g.mul(w_h, w_t))
+            stored = term if stored is None else g.vmath("ADD", stored, term)
     c_t = gin.outputs["Cos Sun View"]
     phase = g.mul(g.mul_add(c_t, c_t, 1.0), RAYLEIGH_PHASE_NORM)
     g.links.new(g.vscale(stored, phase), gout.inputs["Radiance"])
     return tree
+
+
+def filtering_for_engine(engine: str) -> str:
+    return "HARDWARE" if engine == "CYCLES" else "MANUAL"

@@ -6,6 +6,8 @@ scene/objects so ``unwire_scene`` restores them.
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import bpy
 
 from ... import lut_gen
@@ -29,15 +31,30 @@ def check_scene(scene):
         raise SetupError("the scene has no camera: add one (Add > Camera) and make it the scene camera")
 
 
-def build_groups(bake_dir):
-    """Load the bake's images and (re)build the node groups; returns (images, luts params, dims)."""
+def build_groups(bake_dir, engine="CYCLES"):
+    """Load the bake's images and (re)build the node groups for the render engine; returns
+    (images, atmosphere params)."""
     images = luts.load_images(bake_dir)
-    stored = lut_gen.exr_io.read_header_params(bake_dir)
-    params, dims = stored
-    nodes.build_lookup_group(images["multiple"], dims, params)
+    params, dims = lut_gen.exr_io.read_header_params(bake_dir)
+    nodes.build_lookup_group(images["multiple"], dims, params, nodes.lookup.filtering_for_engine(engine))
     nodes.build_sky_group(images["optical_depth"], params)
     nodes.build_terrain_group(images["optical_depth"], images["ambient"], params)
     return images, params
+
+
+def match_engine(scene) -> bool:
+    """Rebuild the groups when the render engine wants the other look-up filtering (see
+    nodes.lookup); True when something was rebuilt."""
+    group = bpy.data.node_groups.get(nodes.LOOKUP_GROUP)
+    if group is None or not scene.get(WIRED_KEY):
+        return False
+    if group.get("ols_filtering") == nodes.lookup.filtering_for_engine(scene.render.engine):
+        return False
+    image = next((n.image for n in group.nodes if n.type == "TEX_IMAGE" and n.image), None)
+    if image is None:
+        return False
+    build_groups(Path(bpy.path.abspath(image.filepath)).parent, scene.render.engine)
+    return True
 
 
 def _albedo_of(material):
@@ -107,7 +124,7 @@ def wire_scene(scene, bake_dir, terrain_objects=(), sun=None):
     """Everything ``Set up scene`` does, for a bake directory that already holds the tables.
     Returns the sun lamp used."""
     check_scene(scene)
-    images, params = build_groups(bake_dir)        # may raise: nothing in the scene changed yet
+    images, params = build_groups(bake_dir, scene.render.engine)   # may raise: scene untouched so far
     sun = sun or sun_lamps.find_sun(scene) or sun_lamps.create_sun(scene)
     terrain_objects = [o for o in terrain_objects if o.type == "MESH"]
     # With terrain materials the sky lights the scene through their ambient term (the sample's
