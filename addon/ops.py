@@ -39,6 +39,7 @@ def swap_in(scene, directory):
     """Point an already wired scene at another bake (after a re-bake): rebuild the groups."""
     wiring.build_groups(directory, scene.render.engine)
     scene[wiring.WIRED_KEY] = directory.name
+    wiring.refresh(scene, force=True)
     luts.release_unused_images()
 
 
@@ -201,40 +202,19 @@ class OLS_OT_render(bpy.types.Operator):
 
 # -- handlers ---------------------------------------------------------------------------------
 
-_transmittance_cache = {}
-
-
-def _origin_transmittance(scene):
-    key = scene.get(wiring.WIRED_KEY)
-    if not key:
-        return None
-    if key not in _transmittance_cache:
-        image = bpy.data.images.get(luts.image_name("optical_depth", key))
-        if image is None:
-            return None
-        try:
-            params, _ = lut_gen.exr_io.read_header_params(Path(bpy.path.abspath(image.filepath)).parent)
-        except (lut_gen.LutError, OSError):
-            return None
-        _transmittance_cache.clear()
-        _transmittance_cache[key] = sun_lamps.OriginTransmittance(image, params)
-    return _transmittance_cache[key]
-
-
 def _update_scene(scene):
     sun = sun_lamps.find_sun(scene)
     if sun is None or not scene.get(wiring.WIRED_KEY):
         return
     try:
         wiring.match_engine(scene)
+        if scene.ols.animate_sun:
+            elevation, azimuth = animation.sun_angles_for_frame(scene.frame_current, scene.frame_start,
+                                                                scene.frame_end)
+            sun_lamps.set_sun_angles(sun, elevation, azimuth)
+        wiring.refresh(scene)
     except (lut_gen.LutError, OSError) as exc:
-        print(f"Outdoor Light Scattering: cannot rebuild the sky for {scene.render.engine}: {exc}")
-    if scene.ols.animate_sun:
-        elevation, azimuth = animation.sun_angles_for_frame(scene.frame_current, scene.frame_start, scene.frame_end)
-        sun_lamps.set_sun_angles(sun, elevation, azimuth)
-    transmittance = _origin_transmittance(scene)
-    if transmittance is not None:
-        sun_lamps.update_sun_colour(sun, transmittance)
+        print(f"Outdoor Light Scattering: cannot update the sky: {exc}")
 
 
 @persistent
@@ -261,7 +241,7 @@ def unregister_handlers():
     for handlers, function in HANDLERS:
         while function in handlers:
             handlers.remove(function)
-    _transmittance_cache.clear()
+    wiring.forget_caches()
 
 
 CLASSES = (OLS_OT_bake_luts, OLS_OT_setup_scene, OLS_OT_render)

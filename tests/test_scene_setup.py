@@ -188,3 +188,50 @@ def test_rebake_swaps_new_tables_into_a_wired_scene(addon):
     terrain_node = objects["terrain"].active_material.node_tree.nodes["OLS Terrain"]
     assert terrain_node.node_tree == bpy.data.node_groups["OLS Terrain"] and terrain_node.outputs[0].is_linked
     assert not any(i.name.startswith(f"OLS multiple {old_key[:8]}") for i in bpy.data.images)
+
+
+@pytest.mark.parametrize("facing", [(0.0, 1.0, 0.0), (0.0, -1.0, 0.0)])
+def test_world_lighting_matches_the_sky_it_shows(addon, tmp_path, facing):
+    """With "Light Scene" on, the world lights the scene through the panorama: a white
+    diffuse plane receives the hemisphere integral of the twin's sky (sun lamp off)."""
+    scene = empty_scene(width=32, height=32, samples=256)
+    facing = np.array(facing)
+    bpy.ops.mesh.primitive_plane_add(size=10.0, location=(0.0, 0.0, 5.0))
+    plane = bpy.context.active_object
+    plane.rotation_euler = (math.radians(-90.0) if facing[1] > 0 else math.radians(90.0), 0.0, 0.0)
+    material = bpy.data.materials.new("white")
+    material.use_nodes = True
+    bsdf = material.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    bsdf.inputs["Roughness"].default_value = 1.0
+    plane.data.materials.append(material)
+    cam_data = bpy.data.cameras.new("cam")
+    cam_data.type = "ORTHO"
+    cam_data.ortho_scale = 4.0
+    camera = bpy.data.objects.new("cam", cam_data)
+    camera.location = tuple(np.array([0.0, 0.0, 5.0]) + facing * 20.0)        # in front, same height
+    camera.rotation_euler = (math.radians(90.0), 0.0, math.radians(180.0) if facing[1] > 0 else 0.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    sun_mod = module(addon, "addon.scene.sun")
+    sun = sun_mod.create_sun(scene, elevation_deg=20.0, azimuth_deg=0.0)
+    ops = module(addon, "addon.ops")
+    directory = ops.bake_if_needed(addon.lut_gen.AtmosphereParams(), "draft")
+    module(addon, "addon.scene.wiring").wire_scene(scene, directory, [], sun)   # Light Scene = 1
+    sun.hide_render = True                                                        # sky light only
+    rendered = render_rgb(scene, tmp_path / "lit.exr")
+    save_png(tmp_path / "lit.png", rendered, exposure=5.0)
+
+    luts = addon.lut_gen.load(directory)
+    n = 40_000
+    k = np.arange(n) + 0.5
+    z = 1 - 2 * k / n
+    phi = np.pi * (1 + 5 ** 0.5) * k
+    d = np.stack([np.sqrt(1 - z * z) * np.cos(phi), np.sqrt(1 - z * z) * np.sin(phi), z], axis=-1)
+    to_sun = sun_mod.direction_to_sun(sun)
+    sky = luts.sky_radiance(camera.location.z, d[:, 2], to_sun[2], d @ to_sun)   # panorama's height
+    scale = sun.data.energy * scene.ols.scattering_scale
+    irradiance = (sky * np.clip(d @ facing, 0, None)[:, None]).sum(axis=0) * 4 * np.pi / n * scale
+    want = irradiance / np.pi
+    got = rendered[8:24, 8:24].reshape(-1, 3).mean(axis=0)
+    np.testing.assert_allclose(got, want, rtol=0.05)

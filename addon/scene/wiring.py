@@ -12,7 +12,7 @@ import bpy
 
 from ... import lut_gen
 from .. import nodes
-from . import drivers, luts, sun as sun_lamps
+from . import drivers, luts, skylight, sun as sun_lamps
 
 WORLD_NAME = "OLS World"
 TERRAIN_MATERIAL = "OLS Terrain"
@@ -37,7 +37,7 @@ def build_groups(bake_dir, engine="CYCLES"):
     images = luts.load_images(bake_dir)
     params, dims = lut_gen.exr_io.read_header_params(bake_dir)
     nodes.build_lookup_group(images["multiple"], dims, params, nodes.lookup.filtering_for_engine(engine))
-    nodes.build_sky_group(images["optical_depth"], params)
+    nodes.build_sky_group(images["optical_depth"], params, skylight.ensure_image())
     nodes.build_terrain_group(images["optical_depth"], images["ambient"], params)
     return images, params
 
@@ -133,9 +133,52 @@ def wire_scene(scene, bake_dir, terrain_objects=(), sun=None):
     for obj in terrain_objects:
         wire_terrain(obj, sun)
     scene[WIRED_KEY] = lut_gen.exr_io.read_key(bake_dir)
-    sun_lamps.update_sun_colour(sun, sun_lamps.OriginTransmittance(images["optical_depth"], params))
+    refresh(scene, force=True)
     luts.release_unused_images()
     return sun
+
+
+class BakeInfo:
+    """What the scene handlers need of the wired bake, read once per bake key."""
+
+    def __init__(self, key: str):
+        self.key = key
+        self.multiple = bpy.data.images.get(luts.image_name("multiple", key))
+        optical_depth = bpy.data.images.get(luts.image_name("optical_depth", key))
+        if self.multiple is None or optical_depth is None:
+            raise FileNotFoundError(f"the images of bake {key} are not loaded; run Set Up Scene")
+        self.params, self.dims = lut_gen.exr_io.read_header_params(Path(bpy.path.abspath(self.multiple.filepath)).parent)
+        self.origin_transmittance = sun_lamps.OriginTransmittance(optical_depth, self.params)
+
+
+_bake_info = {}
+
+
+def bake_info(scene):
+    key = scene.get(WIRED_KEY)
+    if not key:
+        return None
+    if key not in _bake_info:
+        _bake_info.clear()
+        _bake_info[key] = BakeInfo(key)
+    return _bake_info[key]
+
+
+def refresh(scene, force=False):
+    """Bring what depends on the sun and camera up to date: the lamp's colour (extinction at
+    the origin) and the lighting panorama."""
+    info = bake_info(scene)
+    sun = sun_lamps.find_sun(scene)
+    if info is None or sun is None:
+        return
+    sun_lamps.update_sun_colour(sun, info.origin_transmittance)
+    height = scene.camera.matrix_world.translation.z if scene.camera else 0.0
+    skylight.update(info.key, info.multiple, info.params, info.dims, sun_lamps.direction_to_sun(sun), height, force)
+
+
+def forget_caches():
+    _bake_info.clear()
+    skylight.forget()
 
 
 def unwire_scene(scene):
