@@ -227,8 +227,17 @@ def on_depsgraph_update(scene, depsgraph=None):
     _update_scene(scene)
 
 
+@persistent
+def on_data_replaced(*_args):
+    """Undo, redo and file loads replace Blender's data: cached image references go stale."""
+    wiring.forget_caches()
+
+
 HANDLERS = ((bpy.app.handlers.frame_change_pre, on_frame_change),
-            (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update))
+            (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
+            (bpy.app.handlers.undo_post, on_data_replaced),
+            (bpy.app.handlers.redo_post, on_data_replaced),
+            (bpy.app.handlers.load_post, on_data_replaced))
 
 
 def register_handlers():

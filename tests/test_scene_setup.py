@@ -235,3 +235,28 @@ def test_world_lighting_matches_the_sky_it_shows(addon, tmp_path, facing):
     want = irradiance / np.pi
     got = rendered[8:24, 8:24].reshape(-1, 3).mean(axis=0)
     np.testing.assert_allclose(got, want, rtol=0.05)
+
+
+def test_undo_restores_the_unwired_scene_in_one_step(addon):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    build = load_sample_builder()
+    build.build_sample_scene(bpy.context.scene, resolution=32)
+    bpy.data.objects["OLS Terrain"].select_set(True)
+    bpy.ops.ed.undo_push(message="before setup")
+    worlds_before = sorted(w.name for w in bpy.data.worlds)
+    assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+    bpy.ops.ed.undo_push(message="Set Up Scene")     # what the UI does for an UNDO operator
+    scene = bpy.context.scene
+    assert scene.world.name == "OLS World"
+    bpy.ops.ed.undo()
+    scene = bpy.context.scene
+    assert scene.world.name != "OLS World" and sorted(w.name for w in bpy.data.worlds) == worlds_before
+    assert "ols_bake_key" not in scene
+    assert bpy.data.objects["OLS Terrain"].active_material.name == "OLS Terrain Base"
+    assert not any(name in bpy.data.node_groups for name in ("OLS Sky", "OLS Terrain", "OLS Scattering Lookup"))
+    bpy.ops.ed.redo()
+    scene = bpy.context.scene
+    assert scene.world.name == "OLS World" and scene["ols_bake_key"]
+    module(addon, "addon.scene.sun").set_sun_angles(bpy.data.objects["OLS Sun"], 30.0, 10.0)
+    bpy.context.view_layer.update()                 # handlers run on the redone data without errors
+    module(addon, "addon.scene.wiring").refresh(scene, force=True)

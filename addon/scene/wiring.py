@@ -158,10 +158,17 @@ def bake_info(scene):
     key = scene.get(WIRED_KEY)
     if not key:
         return None
-    if key not in _bake_info:
+    info = _bake_info.get(key)
+    if info is not None:
+        try:
+            info.multiple.name          # still the live image (not replaced by undo or a load)?
+        except ReferenceError:
+            info = None
+    if info is None:
         _bake_info.clear()
-        _bake_info[key] = BakeInfo(key)
-    return _bake_info[key]
+        skylight.forget()
+        info = _bake_info[key] = BakeInfo(key)
+    return info
 
 
 def refresh(scene, force=False):
