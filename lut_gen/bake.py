@@ -135,10 +135,12 @@ def bake_optical_depth(params: AtmosphereParams, n_height: int, n_cos: int,
         h = heights[sl, None]
         r = params.earth_radius + h
         length = distance_to_sphere_exit(r, cosines[None, :], params.top_radius)
-        s = clustered_nodes(r, cosines[None, :], length, steps)
-        net = _trapezoid(_densities32(params, _height_along(params, h, r, cosines[None, :], s)), s)
-        net[cosines[None, :] < par.cos_horizon(h, params.earth_radius)] = EARTH_HIT_NET_DENSITY
-        out[sl] = net
+        s = clustered_nodes(r, cosines[None, :], length, steps).astype(np.float32)
+        node_heights = _height_along(params, h, r, cosines[None, :], s)
+        weights = _trapezoid_weights(s)
+        for medium, density in enumerate(_density_profiles(params, node_heights)):
+            out[sl, :, medium] = np.einsum("...k,...k->...", density, weights) if density is not None else 0.0
+        out[sl][cosines[None, :] < par.cos_horizon(h, params.earth_radius)] = EARTH_HIT_NET_DENSITY
 
     _parallel_rows(fill, len(starts), progress or (lambda *a: None), "optical depth")
     return out
@@ -161,10 +163,23 @@ def _densities32(params, heights):
     return out
 
 
-def _trapezoid(values, s):
-    """Integrate (..., n, C) values over the last-but-one axis with abscissae s (..., n)."""
-    ds = np.diff(s, axis=-1)[..., None].astype(np.float32)
-    return np.sum(0.5 * (values[..., 1:, :] + values[..., :-1, :]) * ds, axis=-2)
+def _density_profiles(params, heights):
+    """Rayleigh, Mie and ozone densities as separate contiguous float32 arrays (None for an
+    ozone layer that is switched off)."""
+    heights = np.maximum(heights, np.float32(0.0))
+    rayleigh = np.exp(heights * np.float32(-1.0 / params.rayleigh_scale_height))
+    mie = np.exp(heights * np.float32(-1.0 / params.mie_scale_height))
+    ozone = ozone_density(params, heights).astype(np.float32) if params.ozone else None
+    return rayleigh, mie, ozone
+
+
+def _trapezoid_weights(s):
+    """Trapezoid-rule weights of the samples s (..., n) along the last axis."""
+    ds = np.diff(s, axis=-1)
+    weights = np.zeros_like(s)
+    weights[..., :-1] += 0.5 * ds
+    weights[..., 1:] += 0.5 * ds
+    return weights
 
 
 def transmittance_table(params: AtmosphereParams, optical_depth: np.ndarray) -> np.ndarray:

@@ -44,9 +44,13 @@ def clustered_nodes(r, cos_zenith, length, n: int, uniform_share: float = 0.0):
     total = np.maximum(length, 1e-9)[..., None]
     a = s_low / total
     t = np.linspace(0.0, 1.0, n)
-    before = s_low * (1.0 - np.square((a - t) / np.maximum(a, 1e-12)))
-    after = s_low + (total - s_low) * np.square((t - a) / np.maximum(1.0 - a, 1e-12))
-    s = np.where(t <= a, before, after) * (1.0 - uniform_share) + uniform_share * t * total
+    before = t <= a
+    # Distance from the lowest point in units of its side of the ray, squared: the quadratic
+    # clustering on both sides in one expression.
+    q = (t - a) / np.where(before, np.maximum(a, 1e-12), np.maximum(1.0 - a, 1e-12))
+    s = s_low + np.where(before, -s_low, total - s_low) * (q * q)
+    if uniform_share:
+        s = s * (1.0 - uniform_share) + uniform_share * t * total
     s[..., 0] = 0.0
     s[..., -1] = length
     return s
