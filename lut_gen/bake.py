@@ -283,9 +283,14 @@ def bake_single(params: AtmosphereParams, dims, trans_table: np.ndarray, progres
         basis[..., 1] = wc
         basis[..., 2] = wh[:, :, None, None]
         basis[..., 3] = wc * wh[:, :, None, None]
-        sun_trans = np.einsum("akstjc,akstj->akstc", cell, basis)[..., :3]               # (a, K, s, t, 3)
-        ray_r = np.einsum("akstc,akc->astc", sun_trans, nodes.weight_rayleigh)
-        ray_m = np.einsum("akstc,akc->astc", sun_trans, nodes.weight_mie)
+        sun_trans = np.einsum("akstjc,akstj->akstc", cell, basis)                         # (a, K, s, t, 4)
+        # Sum over nodes for both media at once, as matmuls per ray and channel (BLAS).
+        n_rays = len(nodes.s)
+        by_channel = sun_trans.transpose(0, 4, 2, 3, 1).reshape(n_rays, 4, n_s * n_t, k_nodes)[:, :3]
+        weights = np.stack([nodes.weight_rayleigh, nodes.weight_mie], axis=-1).transpose(0, 2, 1, 3)  # (a, 3, K, 2)
+        integrals = np.matmul(by_channel, weights).reshape(n_rays, 3, n_s, n_t, 2)
+        ray_r = integrals[..., 0].transpose(0, 2, 3, 1)
+        ray_m = integrals[..., 1].transpose(0, 2, 3, 1)
         phase_ratio = (mie_phase(ct, params.mie_g) / rayleigh_phase(ct))[..., None]
         out[i, rays] = params.rayleigh * ray_r + params.mie * phase_ratio * ray_m
 
