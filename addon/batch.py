@@ -16,7 +16,8 @@ from pathlib import Path
 
 import bpy
 
-from . import props
+from .. import lut_gen
+from . import ops, props
 from .scene import sun as sun_lamps
 from .scene import wiring
 
@@ -137,11 +138,11 @@ def main(argv=None) -> int:
         scene = prepare(args)
         apply_options(scene, args)
         if not scene.get(wiring.WIRED_KEY):
-            result = bpy.ops.ols.setup_scene(resolution=args.tables)
-            if "FINISHED" not in result:
-                raise BatchError("setting up the scene failed (see the message above)")
+            directory = ops.bake_if_needed(props.atmosphere_params(scene.ols).validate(), args.tables)
+            terrain = [o for o in scene.objects if o.select_get() and o.type == "MESH"]
+            wiring.wire_scene(scene, directory, terrain)
         output = render(scene, args)
-    except (BatchError, wiring.SetupError) as exc:
+    except (BatchError, wiring.SetupError, lut_gen.LutError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
     print(f"rendered {output}")

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import bpy
 
-from ...lut_gen.exr_io import FILES, read_key
+from ...lut_gen.exr_io import FILES, LutError, read_key
 
 IMAGE_PREFIX = "OLS"
 
@@ -21,19 +21,25 @@ def load_images(directory) -> dict:
     directory = Path(directory)
     key = read_key(directory)
     if key is None:
-        raise FileNotFoundError(f"{directory} holds no baked tables; run Bake Tables first")
+        raise LutError(f"{directory} holds no baked tables; run Bake Tables first")
     images = {}
     for table, filename in FILES.items():
         path = directory / filename
         if not path.exists():
-            raise FileNotFoundError(f"{path} is missing; bake the tables again")
+            raise LutError(f"{path} is missing; bake the tables again")
         name = image_name(table, key)
         image = bpy.data.images.get(name)
         if image is None or bpy.path.abspath(image.filepath) != str(path):
             if image is not None:
                 bpy.data.images.remove(image)
-            image = bpy.data.images.load(str(path))
+            try:
+                image = bpy.data.images.load(str(path))
+            except RuntimeError as exc:
+                raise LutError(f"{path} cannot be read ({exc}); bake the tables again") from None
             image.name = name
+        if image.size[0] == 0 or image.size[1] == 0:    # Blender could not decode it
+            bpy.data.images.remove(image)
+            raise LutError(f"{path} is damaged (Blender cannot decode it); bake the tables again")
         image.colorspace_settings.is_data = True      # raw numbers, no view transform
         image.alpha_mode = "NONE"
         images[table] = image
