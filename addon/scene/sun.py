@@ -47,7 +47,13 @@ def set_sun_angles(sun, elevation_deg, azimuth_deg):
 
 
 def direction_to_sun(sun) -> np.ndarray:
-    return np.array(sun.matrix_world.to_3x3().col[2], dtype=np.float64)
+    """The lamp's local +Z in world space, from its current rotation: matrix_world lags behind
+    a rotation set in a handler until the depsgraph is evaluated again."""
+    matrix = sun.matrix_basis
+    if sun.parent is not None:
+        matrix = sun.parent.matrix_world @ sun.matrix_parent_inverse @ matrix
+    direction = np.array(matrix.to_3x3().col[2], dtype=np.float64)
+    return direction / np.linalg.norm(direction)
 
 
 class OriginTransmittance:
