@@ -140,7 +140,7 @@ def main(argv=None) -> int:
         if not scene.get(wiring.WIRED_KEY):
             directory = ops.bake_if_needed(props.atmosphere_params(scene.ols).validate(), args.tables)
             terrain = [o for o in scene.objects if o.select_get() and o.type == "MESH"]
-            wiring.wire_scene(scene, directory, terrain)
+            wiring.wire_scene(scene, directory, terrain, resolution=args.tables)
         output = render(scene, args)
     except (BatchError, wiring.SetupError, lut_gen.LutError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -56,7 +56,7 @@ class OLS_OT_bake_luts(bpy.types.Operator):
         scene = context.scene
         try:
             if self.setup_after:
-                wiring.wire_scene(scene, directory, terrain_candidates(context))
+                wiring.wire_scene(scene, directory, terrain_candidates(context), resolution=self.resolution)
             elif scene.get(wiring.WIRED_KEY):
                 swap_in(scene, directory)
         except (wiring.SetupError, lut_gen.LutError, OSError, RuntimeError) as exc:
@@ -146,7 +146,7 @@ class OLS_OT_setup_scene(bpy.types.Operator):
             wiring.check_scene(scene)
             params = props.atmosphere_params(scene.ols).validate()
             directory = bake_if_needed(params, self.resolution)
-            wiring.wire_scene(scene, directory, terrain_candidates(context))
+            wiring.wire_scene(scene, directory, terrain_candidates(context), resolution=self.resolution)
         except (wiring.SetupError, lut_gen.LutError, OSError, ValueError, RuntimeError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
@@ -233,11 +233,38 @@ def on_data_replaced(*_args):
     wiring.forget_caches()
 
 
+@persistent
+def on_file_loaded(*_args):
+    """A wired file opened where its tables are not baked (another machine, a cleared cache):
+    bake them again for the scene's settings and swap them in."""
+    wiring.forget_caches()
+    for scene in bpy.data.scenes:
+        key = scene.get(wiring.WIRED_KEY)
+        image = bpy.data.images.get(luts.image_name("multiple", key)) if key else None
+        if not key or (image is not None and Path(bpy.path.abspath(image.filepath)).exists()):
+            continue
+        resolution = scene.get(wiring.RESOLUTION_KEY, "default")
+        try:
+            if bpy.app.background:
+                swap_in(scene, bake_if_needed(props.atmosphere_params(scene.ols).validate(), resolution))
+            else:
+                bpy.app.timers.register(lambda: _invoke_bake(resolution), first_interval=0.1)
+        except (lut_gen.LutError, OSError, ValueError) as exc:
+            print(f"Outdoor Light Scattering: cannot bake the tables of scene {scene.name!r}: {exc}")
+
+
+def _invoke_bake(resolution):
+    window = next(iter(bpy.context.window_manager.windows), None)
+    if window is not None:
+        with bpy.context.temp_override(window=window):
+            bpy.ops.ols.bake_luts("INVOKE_DEFAULT", resolution=resolution)
+
+
 HANDLERS = ((bpy.app.handlers.frame_change_pre, on_frame_change),
             (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
             (bpy.app.handlers.undo_post, on_data_replaced),
             (bpy.app.handlers.redo_post, on_data_replaced),
-            (bpy.app.handlers.load_post, on_data_replaced))
+            (bpy.app.handlers.load_post, on_file_loaded))
 
 
 def register_handlers():

@@ -27,6 +27,7 @@ Scene layout (1 Blender unit = 1 m, Z up, ground at z = 0):
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import math
 import sys
 import time
@@ -474,6 +475,15 @@ def _operator_exists(module: str, name: str) -> bool:
     return name in dir(getattr(bpy.ops, module))
 
 
+def _register_extension_from_repo() -> None:
+    """Register the extension from this checkout (the way scripts/render.py does), so that
+    --wire also works with the bpy module or a Blender without the extension installed."""
+    spec = importlib.util.spec_from_file_location("ols_render_launcher", REPO_ROOT / "scripts" / "render.py")
+    launcher = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(launcher)
+    launcher.import_extension()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="build_sample.py",
@@ -485,6 +495,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="sun azimuth, degrees from +Y (camera forward) toward +X")
     parser.add_argument("--resolution", type=int, default=256, help="terrain vertices per side")
     parser.add_argument("--seed", type=int, default=7, help="terrain noise seed")
+    parser.add_argument("--tables", choices=("default", "draft"), default="default",
+                        help="table resolution baked by --wire")
     parser.add_argument("--wire", action="store_true",
                         help="after building, run bpy.ops.ols.setup_scene() (needs the add-on enabled)")
     args = parser.parse_args(_script_args(sys.argv if argv is None else argv))
@@ -504,6 +516,8 @@ def main(argv: list[str] | None = None) -> int:
 
     if args.wire:
         if not _operator_exists("ols", "setup_scene"):
+            _register_extension_from_repo()
+        if not _operator_exists("ols", "setup_scene"):
             print("build_sample: error: --wire needs the operator bpy.ops.ols.setup_scene, which is "
                   "not registered; enable the Outdoor Light Scattering extension first (e.g. run "
                   "inside Blender with the extension installed)", file=sys.stderr)
@@ -512,7 +526,7 @@ def main(argv: list[str] | None = None) -> int:
         for obj in bpy.context.scene.objects:
             obj.select_set(obj == terrain)
         bpy.context.view_layer.objects.active = terrain
-        result = bpy.ops.ols.setup_scene()
+        result = bpy.ops.ols.setup_scene(resolution=args.tables)
         if "FINISHED" not in result:
             print(f"build_sample: error: bpy.ops.ols.setup_scene() returned {set(result)}",
                   file=sys.stderr)

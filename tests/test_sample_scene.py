@@ -4,6 +4,8 @@ Every test starts from ``read_factory_settings(use_empty=True)`` so it can share
 with the other bpy tests.
 """
 import importlib.util
+import shutil
+import os
 import math
 import subprocess
 import sys
@@ -271,12 +273,31 @@ def test_script_accepts_blender_style_args(tmp_path):
     assert out.is_file()
 
 
-def test_script_wire_without_addon_fails_clearly(tmp_path):
+def test_script_wire_saves_a_wired_scene_that_reopens_anywhere(tmp_path):
+    """--wire registers the extension from the checkout, bakes and saves a wired .blend. Opened
+    where the baked tables are missing (another machine), the load handler bakes them again."""
     out = tmp_path / "wired.blend"
-    proc = _run_script("--out", str(out), "--resolution", "16", "--wire")
-    assert proc.returncode != 0
-    assert "setup_scene" in proc.stderr
-    assert not out.exists()
+    env = dict(os.environ, OLS_CACHE_DIR=str(tmp_path / "cache"))
+    proc = subprocess.run([sys.executable, str(SCRIPT), "--out", str(out), "--resolution", "16", "--wire",
+                           "--tables", "draft"], capture_output=True, text=True, timeout=600, env=env)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    shutil.rmtree(tmp_path / "cache")
+    check = (
+        "import sys, importlib.util\n"
+        f"spec = importlib.util.spec_from_file_location('launcher', {str(ROOT / 'scripts' / 'render.py')!r})\n"
+        "launcher = importlib.util.module_from_spec(spec); spec.loader.exec_module(launcher)\n"
+        "launcher.import_extension()\n"
+        "import bpy, os\n"
+        f"bpy.ops.wm.open_mainfile(filepath={str(out)!r})\n"
+        "scene = bpy.context.scene\n"
+        "image = next(i for i in bpy.data.images if i.name.startswith('OLS multiple'))\n"
+        "print('WORLD', scene.world.name, 'MATERIAL', bpy.data.objects['OLS Terrain'].active_material.name)\n"
+        "print('TABLES', os.path.exists(bpy.path.abspath(image.filepath)), image.size[0] > 0)\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, timeout=600, env=env)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "WORLD OLS World MATERIAL OLS Terrain OLS Terrain" in proc.stdout
+    assert "TABLES True True" in proc.stdout
 
 
 # ---------------------------------------------------------------------------------------------

@@ -37,6 +37,8 @@ def load_images(directory) -> dict:
             except RuntimeError as exc:
                 raise LutError(f"{path} cannot be read ({exc}); bake the tables again") from None
             image.name = name
+        if image.size[0] == 0:                          # e.g. the file was missing when the .blend opened
+            image.reload()
         if image.size[0] == 0 or image.size[1] == 0:    # Blender could not decode it
             bpy.data.images.remove(image)
             raise LutError(f"{path} is damaged (Blender cannot decode it); bake the tables again")

@@ -19,6 +19,7 @@ TERRAIN_MATERIAL = "OLS Terrain"
 PREVIOUS_WORLD = "ols_previous_world"
 PREVIOUS_MATERIAL = "ols_previous_material"
 WIRED_KEY = "ols_bake_key"
+RESOLUTION_KEY = "ols_table_resolution"
 GENERATED = "ols_generated"      # marks materials this module made
 
 
@@ -120,7 +121,7 @@ def wire_terrain(obj, sun):
     return material
 
 
-def wire_scene(scene, bake_dir, terrain_objects=(), sun=None):
+def wire_scene(scene, bake_dir, terrain_objects=(), sun=None, resolution="default"):
     """Everything ``Set up scene`` does, for a bake directory that already holds the tables.
     Returns the sun lamp used."""
     check_scene(scene)
@@ -133,6 +134,7 @@ def wire_scene(scene, bake_dir, terrain_objects=(), sun=None):
     for obj in terrain_objects:
         wire_terrain(obj, sun)
     scene[WIRED_KEY] = lut_gen.exr_io.read_key(bake_dir)
+    scene[RESOLUTION_KEY] = resolution
     refresh(scene, force=True)
     luts.release_unused_images()
     return sun
@@ -197,6 +199,6 @@ def unwire_scene(scene):
         if name and name in bpy.data.materials and obj.material_slots:
             obj.material_slots[obj.active_material_index].material = bpy.data.materials[name]
             del obj[PREVIOUS_MATERIAL]
-    for key in (PREVIOUS_WORLD, WIRED_KEY):
+    for key in (PREVIOUS_WORLD, WIRED_KEY, RESOLUTION_KEY):
         if key in scene:
             del scene[key]
