@@ -1,0 +1,93 @@
+""""OLS Tone Mapping": the sample's seven tone-mapping operators as a compositor group.
+
+Twin: addon/post/tone_mapping.py (same names, same constants). The operator is an input (its
+index in OPERATORS) so a driver from scene.ols switches it; all seven are evaluated and the
+chosen one is kept. Auto exposure takes the log-average luminance of the frame from the Levels
+node's mean over log luminance; otherwise "Average Luminance" is used (the sample's 0.1).
+"""
+from __future__ import annotations
+
+import math
+
+from ..post import tone_mapping as twin
+from .builder import group_io, new_group
+
+GROUP_NAME = "OLS Tone Mapping"
+INPUTS = [
+    ("Image", "NodeSocketColor", (0.0, 0.0, 0.0, 1.0)),
+    ("Operator", "NodeSocketFloat", float(twin.OPERATORS.index("UNCHARTED2"))),
+    ("Middle Gray", "NodeSocketFloat", 0.18),
+    ("White Point", "NodeSocketFloat", 3.0),
+    ("Luminance Saturation", "NodeSocketFloat", 1.0),
+    ("Auto Exposure", "NodeSocketFloat", 1.0),
+    ("Average Luminance", "NodeSocketFloat", twin.FIXED_AVERAGE_LUMINANCE),
+]
+
+
+def _uncharted2(g, x):
+    a, b, c, d, e, f = 0.15, 0.50, 0.10, 0.20, 0.02, 0.30
+    numerator = g.add(g.mul(x, g.mul_add(x, a, c * b)), d * e)
+    denominator = g.add(g.mul(x, g.mul_add(x, a, b)), d * f)
+    return g.sub(g.div(numerator, denominator), e / f)
+
+
+def build_tone_mapping_group():
+    tree = new_group(GROUP_NAME, "CompositorNodeTree")
+    g, gin, gout = group_io(tree, INPUTS, [("Image", "NodeSocketColor", None)])
+    split = g.node("CompositorNodeSeparateColor")
+    g.links.new(gin.outputs["Image"], split.inputs["Image"])
+    colour = [g.math("MAXIMUM", split.outputs[name], 0.0) for name in ("Red", "Green", "Blue")]
+    weights = twin.RGB_TO_LUMINANCE
+    lum = g.math("MAXIMUM", g.mul_add(colour[2], weights[2], g.mul_add(colour[1], weights[1], g.mul(colour[0], weights[0]))),
+                 twin.MIN_LUMINANCE)
+
+    # Average luminance: exp(mean(log L)) from the Levels node, or the given value.
+    log_lum = g.math("LOGARITHM", lum, math.e)
+    log_image = g.node("CompositorNodeCombineColor")
+    for name in ("Red", "Green", "Blue"):
+        g.feed(log_image.inputs[name], log_lum)
+    levels = g.node("CompositorNodeLevels")
+    g.links.new(log_image.outputs["Image"], levels.inputs["Image"])
+    frame_average = g.math("EXPONENT", levels.outputs["Mean"])
+    average = g.lerp(gin.outputs["Average Luminance"], frame_average, gin.outputs["Auto Exposure"])
+
+    scale = g.div(gin.outputs["Middle Gray"], average)
+    scaled_lum = g.mul(lum, scale)
+    white = gin.outputs["White Point"]
+    saturation = gin.outputs["Luminance Saturation"]
+    chroma = [g.math("POWER", g.div(c, lum), saturation) for c in colour]
+
+    # Luminance operators (mapped luminance times chroma).
+    mapped = {
+        "EXP": g.sub(1.0, g.math("EXPONENT", g.mul(scaled_lum, -1.0))),
+        "REINHARD": g.div(scaled_lum, g.add(scaled_lum, 1.0)),
+        "REINHARD_MOD": g.div(g.mul(scaled_lum, g.add(g.div(scaled_lum, g.mul(white, white)), 1.0)),
+                              g.add(scaled_lum, 1.0)),
+        "LOGARITHMIC": g.div(g.math("LOGARITHM", g.add(scaled_lum, 1.0), 10.0),
+                             g.math("LOGARITHM", g.add(white, 1.0), 10.0)),
+    }
+    exponent = math.log(twin.ADAPTIVE_LOG_BIAS) / math.log(0.5)
+    mapped["ADAPTIVE_LOG"] = g.div(
+        g.div(g.math("LOGARITHM", g.add(scaled_lum, 1.0), math.e), g.math("LOGARITHM", g.add(white, 1.0), 10.0)),
+        g.math("LOGARITHM", g.mul_add(g.math("POWER", g.div(scaled_lum, white), exponent), 8.0, 2.0), math.e))
+
+    operator = gin.outputs["Operator"]
+    channels = []
+    for c, ch in zip(colour, chroma):
+        scaled = g.mul(c, scale)
+        results = {name: g.mul(value, ch) for name, value in mapped.items()}
+        results["UNCHARTED2"] = g.div(_uncharted2(g, g.mul(scaled, twin.UNCHARTED2_EXPOSURE_BIAS)), _uncharted2(g, white))
+        x = g.math("MAXIMUM", g.sub(scaled, 0.004), 0.0)
+        filmic = g.div(g.mul(x, g.mul_add(x, 6.2, 0.5)), g.add(g.mul(x, g.mul_add(x, 6.2, 1.7)), 0.06))
+        results["FILMIC_ALU"] = g.math("POWER", filmic, 2.2)
+        chosen = None
+        for index, name in enumerate(twin.OPERATORS):
+            term = g.mul(results[name], g.math("COMPARE", operator, float(index), 0.5))
+            chosen = term if chosen is None else g.add(chosen, term)
+        channels.append(chosen)
+    merge = g.node("CompositorNodeCombineColor")
+    for name, value in zip(("Red", "Green", "Blue"), channels):
+        g.feed(merge.inputs[name], value)
+    g.feed(merge.inputs["Alpha"], split.outputs["Alpha"])
+    g.links.new(merge.outputs["Image"], gout.inputs["Image"])
+    return tree

@@ -1,0 +1,1 @@
+"""bpy-free post-processing: numpy twins of the compositor passes."""
