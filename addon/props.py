@@ -74,6 +74,11 @@ _LIVE_NOW = {
     "aerosol_density",
     "aerosol_absorption",
     "animate_sun",
+    "middle_gray",
+    "white_point",
+    "luminance_saturation",
+    "auto_exposure",
+    "tone_mapping_operator",
 }
 LATER_ISSUE = frozenset(name for names in PROPERTIES_BY_SET.values() for name in names) - _LIVE_NOW
 
@@ -98,6 +103,12 @@ def _rebake_soon(settings, context):
     if bpy.app.timers.is_registered(_start_rebake):
         bpy.app.timers.unregister(_start_rebake)
     bpy.app.timers.register(_start_rebake, first_interval=REBAKE_DELAY_S)
+
+
+def _sync_tone_mapping(settings, context):
+    if context.scene is not None:
+        from .scene import compositor
+        compositor.sync_settings(context.scene)
 
 
 def _start_rebake():
@@ -380,6 +391,7 @@ class OLSSettings(bpy.types.PropertyGroup):
         description=_d("middle_gray",
                        "Tone of the scene: larger values look brighter, smaller values dimmer"),
         default=0.18, min=0.01, max=1.0,
+        update=_sync_tone_mapping,
     )
     white_point: FloatProperty(
         name="White Point",
@@ -387,6 +399,7 @@ class OLSSettings(bpy.types.PropertyGroup):
                        "White point of the Reinhard Mod, Uncharted 2, Logarithmic and Adaptive "
                        "Log operators"),
         default=3.0, min=0.01, max=10.0,
+        update=_sync_tone_mapping,
     )
     luminance_saturation: FloatProperty(
         name="Luminance Saturation",
@@ -394,12 +407,14 @@ class OLSSettings(bpy.types.PropertyGroup):
                        "Additional colour saturation of the Exp, Reinhard, Reinhard Mod, "
                        "Logarithmic and Adaptive Log operators"),
         default=1.0, min=0.1, max=2.0,
+        update=_sync_tone_mapping,
     )
     auto_exposure: BoolProperty(
         name="Auto Exposure",
         description=_d("auto_exposure",
                        "Adjust exposure automatically from the log-average luminance of the scene"),
         default=True,
+        update=_sync_tone_mapping,
     )
     tone_mapping_operator: EnumProperty(
         name="Tone Mapping Operator",
@@ -414,6 +429,7 @@ class OLSSettings(bpy.types.PropertyGroup):
             ("ADAPTIVE_LOG", "Adaptive Log", "Adaptive logarithmic tone mapping operator (Drago)"),
         ),
         default="UNCHARTED2",
+        update=_sync_tone_mapping,
     )
     light_adaptation: BoolProperty(
         name="Light Adaptation",

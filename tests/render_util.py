@@ -51,10 +51,12 @@ def panorama_directions(width, height, supersample=4):
     return d.reshape(height, width, supersample * supersample, 3)
 
 
-def render_rgb(scene, path: Path) -> np.ndarray:
-    """Render the still and return its (height, width, 3) linear RGB, row 0 at the top."""
+def render_rgb(scene, path: Path, composite: bool = False) -> np.ndarray:
+    """Render the still and return its (height, width, 3) linear RGB, row 0 at the top.
+    ``composite``: run the scene's compositor (the tone-mapping pass) on it."""
     import bpy
     import OpenEXR
+    scene.render.use_compositing = composite
     scene.render.image_settings.file_format = "OPEN_EXR"
     scene.render.image_settings.color_depth = "32"
     scene.render.filepath = str(path)

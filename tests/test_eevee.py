@@ -42,6 +42,7 @@ RENDER_SCRIPT = textwrap.dedent("""
     wiring = importlib.import_module(package.__name__ + ".addon.scene.wiring")
     sun = sun_mod.create_sun(scene, args["elevation"], args["azimuth"])
     wiring.wire_scene(scene, args["luts"], [], sun)
+    scene.render.use_compositing = False              # compare the linear sky, before tone mapping
     scene.render.image_settings.file_format = "OPEN_EXR"
     scene.render.image_settings.color_depth = "32"
     scene.render.filepath = args["out"]

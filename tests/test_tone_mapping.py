@@ -1,5 +1,6 @@
 """The "OLS Tone Mapping" compositor group vs the numpy twin of the sample's formulas."""
 from importlib import import_module
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -42,7 +43,7 @@ def composite(pkg, tmp_path, rgb, **inputs):
         node.inputs[name].default_value = value
     scene.compositing_node_group = tree
     scene.render.use_compositing = True
-    return render_rgb(scene, tmp_path / "tone.exr")
+    return render_rgb(scene, tmp_path / "tone.exr", composite=True)
 
 
 @pytest.mark.parametrize("auto_exposure", [True, False])
@@ -70,3 +71,70 @@ def test_operators_differ(addon_package):
             assert np.abs(results[i] - results[j]).max() > 0.01
     assert twin.adapted_luminance(1.0, 2.0, 0.0) == 1.0
     assert twin.adapted_luminance(1.0, 2.0, 1.0) == pytest.approx(1.0 + (1 - np.exp(-1.0)))
+
+
+def sample_scene(pkg, resolution=32):
+    import importlib.util
+    path = Path(__file__).resolve().parent.parent / "sample_blend" / "build_sample.py"
+    spec = importlib.util.spec_from_file_location("ols_build_sample", path)
+    builder = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(builder)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    objects = builder.build_sample_scene(bpy.context.scene, elevation_deg=15.0, azimuth_deg=35.0, resolution=resolution)
+    for obj in bpy.context.scene.objects:
+        obj.select_set(obj == objects["terrain"])
+    return bpy.context.scene
+
+
+def test_setup_inserts_tone_mapping_and_unwire_restores_the_users_tree(addon_package, tmp_path, monkeypatch):
+    monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "cache"))
+    scene = sample_scene(addon_package)
+    tree = bpy.data.node_groups.new("My Compositing", "CompositorNodeTree")
+    tree.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
+    layers = tree.nodes.new("CompositorNodeRLayers")
+    blur = tree.nodes.new("CompositorNodeBlur")
+    output = tree.nodes.new("NodeGroupOutput")
+    tree.links.new(layers.outputs["Image"], blur.inputs["Image"])
+    tree.links.new(blur.outputs["Image"], output.inputs[0])
+    scene.compositing_node_group = tree
+    scene.view_settings.view_transform = "AgX"
+
+    assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+    node = tree.nodes["OLS Tone Mapping"]
+    assert output.inputs[0].links[0].from_node == node and node.inputs["Image"].links[0].from_node == blur
+    assert scene.view_settings.view_transform == "Standard"
+    scene.ols.tone_mapping_operator = "REINHARD"
+    assert node.inputs["Operator"].default_value == 1.0
+    scene.ols.middle_gray = 0.3
+    assert node.inputs["Middle Gray"].default_value == pytest.approx(0.3)
+
+    wiring = import_module(addon_package.__name__ + ".addon.scene.wiring")
+    wiring.unwire_scene(scene)
+    assert "OLS Tone Mapping" not in tree.nodes and output.inputs[0].links[0].from_node == blur
+    assert scene.view_settings.view_transform == "AgX" and scene.compositing_node_group == tree
+
+
+def test_tone_mapped_sample_render_matches_the_twin(addon_package, tmp_path, monkeypatch):
+    """The whole chain: a render of the wired sample, tone mapped by the compositor, equals the
+    numpy operator applied to the same render without compositing."""
+    monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "cache"))
+    twin = import_module(addon_package.__name__ + ".addon.post.tone_mapping")
+    scene = sample_scene(addon_package)
+    assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+    assert bpy.data.node_groups.get("OLS Compositing") == scene.compositing_node_group
+    scene.render.resolution_x, scene.render.resolution_y = 64, 36
+    scene.cycles.samples = 4
+    scene.cycles.seed = 1
+    raw = render_rgb(scene, tmp_path / "raw.exr")
+    mapped = render_rgb(scene, tmp_path / "mapped.exr", composite=True)
+    want = twin.tone_map(raw, "UNCHARTED2", average_luminance=twin.log_average_luminance(raw))
+    assert np.abs(twin.srgb_encode(mapped) - twin.srgb_encode(want)).max() <= 2e-3
+    assert 0.05 < twin.srgb_encode(mapped).mean() < 0.95
+    # The panel's controls reach the render.
+    scene.ols.tone_mapping_operator = "REINHARD"
+    scene.ols.white_point = 5.0
+    scene.ols.middle_gray = 0.4
+    reinhard = render_rgb(scene, tmp_path / "reinhard.exr", composite=True)
+    want = twin.tone_map(raw, "REINHARD", middle_gray=0.4, white_point=5.0,
+                         average_luminance=twin.log_average_luminance(raw))
+    assert np.abs(twin.srgb_encode(reinhard) - twin.srgb_encode(want)).max() <= 2e-3

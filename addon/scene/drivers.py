@@ -44,3 +44,4 @@ def remove_drivers(tree):
     if tree is not None and tree.animation_data is not None:
         for curve in list(tree.animation_data.drivers):
             tree.animation_data.drivers.remove(curve)
+

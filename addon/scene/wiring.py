@@ -12,7 +12,7 @@ import bpy
 
 from ... import lut_gen
 from .. import nodes
-from . import drivers, luts, skylight, sun as sun_lamps
+from . import compositor, drivers, luts, skylight, sun as sun_lamps
 
 WORLD_NAME = "OLS World"
 TERRAIN_MATERIAL = "OLS Terrain"
@@ -30,6 +30,10 @@ class SetupError(Exception):
 def check_scene(scene):
     if scene.camera is None:
         raise SetupError("the scene has no camera: add one (Add > Camera) and make it the scene camera")
+    try:
+        compositor.check_compositor(scene)
+    except ValueError as exc:
+        raise SetupError(str(exc)) from None
 
 
 def build_groups(bake_dir, engine="CYCLES"):
@@ -133,6 +137,7 @@ def wire_scene(scene, bake_dir, terrain_objects=(), sun=None, resolution="defaul
     wire_world(scene, sun, light_scene=0.0 if terrain_objects else 1.0)
     for obj in terrain_objects:
         wire_terrain(obj, sun)
+    compositor.wire_compositor(scene)
     scene[WIRED_KEY] = lut_gen.exr_io.read_key(bake_dir)
     scene[RESOLUTION_KEY] = resolution
     refresh(scene, force=True)
@@ -191,7 +196,8 @@ def forget_caches():
 
 
 def unwire_scene(scene):
-    """Restore the world and materials the scene had before wiring."""
+    """Restore the world, materials and compositor the scene had before wiring."""
+    compositor.unwire_compositor(scene)
     previous = scene.get(PREVIOUS_WORLD)
     scene.world = bpy.data.worlds.get(previous) if previous else None
     for obj in scene.objects:
