@@ -248,12 +248,13 @@ def on_file_loaded(*_args):
             if bpy.app.background:
                 swap_in(scene, bake_if_needed(props.atmosphere_params(scene.ols).validate(), resolution))
             else:
-                bpy.app.timers.register(lambda: _invoke_bake(resolution), first_interval=0.1)
+                bpy.app.timers.register(lambda: invoke_bake_in_window(resolution), first_interval=0.1)
         except (lut_gen.LutError, OSError, ValueError) as exc:
             print(f"Outdoor Light Scattering: cannot bake the tables of scene {scene.name!r}: {exc}")
 
 
-def _invoke_bake(resolution):
+def invoke_bake_in_window(resolution="default"):
+    """Start the background bake from a timer (no operator context there): borrow a window."""
     window = next(iter(bpy.context.window_manager.windows), None)
     if window is not None:
         with bpy.context.temp_override(window=window):

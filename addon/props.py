@@ -112,10 +112,8 @@ def _sync_tone_mapping(settings, context):
 
 
 def _start_rebake():
-    window = next(iter(bpy.context.window_manager.windows), None)
-    if window is not None:
-        with bpy.context.temp_override(window=window):
-            bpy.ops.ols.bake_luts("INVOKE_DEFAULT")
+    from . import ops
+    ops.invoke_bake_in_window(bpy.context.scene.get("ols_table_resolution", "default"))
     return None
 
 

@@ -155,12 +155,9 @@ def _height_along(params, h, r, cos_zenith, s):
 
 
 def _densities32(params, heights):
-    heights = np.maximum(heights.astype(np.float32), 0.0)
-    out = np.empty(heights.shape + (3,), dtype=np.float32)
-    np.exp(heights * np.float32(-1.0 / params.rayleigh_scale_height), out=out[..., 0])
-    np.exp(heights * np.float32(-1.0 / params.mie_scale_height), out=out[..., 1])
-    out[..., 2] = ozone_density(params, heights) if params.ozone else 0.0
-    return out
+    """(..., 3) Rayleigh, Mie and ozone densities in float32."""
+    rayleigh, mie, ozone = _density_profiles(params, heights.astype(np.float32))
+    return np.stack([rayleigh, mie, ozone if ozone is not None else np.zeros_like(mie)], axis=-1)
 
 
 def _density_profiles(params, heights):
@@ -237,15 +234,6 @@ def _node_cos_sun(r, nodes: RayNodes, cos_sun, cos_sun_view):
     inv_radius = (1.0 / nodes.radius)[:, :, None, None].astype(np.float32)
     return (np.float32(r) * cos_sun[None, None, :, None].astype(np.float32)
             + s * cos_sun_view[:, None].astype(np.float32)) * inv_radius
-
-
-def rayleigh_phase_at_nodes(params: AtmosphereParams, dims) -> np.ndarray:
-    """(n_h, n_a, n_s, n_t, 1) Rayleigh phase of each node's (clamped) sun-view angle: the
-    factor the tables are divided by (see sampling.Luts)."""
-    _, cos_view, _, cos_sun, cos_sun_view = par.grid_axes(params, dims)
-    ct = par.clamp_sun_view(cos_view[:, :, None, None], cos_sun[None, None, :, None],
-                            cos_sun_view[None, None, None, :])
-    return rayleigh_phase(ct)[..., None].astype(np.float32)
 
 
 # -- single scattering -----------------------------------------------------------------

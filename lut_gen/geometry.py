@@ -10,13 +10,6 @@ def distance_to_sphere_exit(r, cos_zenith, sphere_radius):
     return np.maximum(-r * cos_zenith + np.sqrt(np.maximum(disc, 0.0)), 0.0)
 
 
-def distance_to_ground(r, cos_zenith, earth_radius):
-    """Distance to the first hit of the Earth sphere; inf where the ray misses it."""
-    disc = r * r * (cos_zenith * cos_zenith - 1.0) + earth_radius * earth_radius
-    d = -r * cos_zenith - np.sqrt(np.maximum(disc, 0.0))
-    return np.where((disc >= 0.0) & (cos_zenith < 0.0), np.maximum(d, 0.0), np.inf)
-
-
 def ray_length(params, r, cos_zenith, hits_ground):
     """Length of a view ray inside the atmosphere; ``hits_ground`` selects the ground end
     (the table's horizon flag), which keeps grazing rays on their own side of the seam."""
