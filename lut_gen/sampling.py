@@ -27,6 +27,16 @@ TABLES = ("single", "higher", "multiple")
 EARTH_HIT_NET_DENSITY = 1e20
 
 
+def below_first_row_factors(params: AtmosphereParams, height_m, n_heights: int) -> np.ndarray:
+    """(..., 3) factors for the net densities of points below the optical-depth table's first
+    row (a texel centre, H_atm / 2N up: 39 m at 1024 rows), where the look-up clamps: the
+    Rayleigh and Mie columns grow as exp(dh / H) going down, ozone (high up) does not."""
+    first_row = params.atmosphere_height / (2 * n_heights)
+    below = np.maximum(first_row - np.asarray(height_m, dtype=np.float64), 0.0)
+    return np.stack([np.exp(below / params.rayleigh_scale_height), np.exp(below / params.mie_scale_height),
+                     np.ones_like(below)], axis=-1)
+
+
 @dataclass
 class Luts:
     """Tables of one bake.
@@ -73,9 +83,11 @@ class Luts:
     # -- optical depth and transmittance -------------------------------------
     def net_density_to_top(self, height_m, cos_zenith) -> np.ndarray:
         n_h, n_c = self.optical_depth.shape[:2]
-        xh = par.unit_to_centre_x(np.asarray(height_m) / self.params.atmosphere_height, n_h)
+        height = np.asarray(height_m, dtype=np.float64)
+        xh = par.unit_to_centre_x(height / self.params.atmosphere_height, n_h)
         xc = par.unit_to_centre_x(np.asarray(cos_zenith) * 0.5 + 0.5, n_c)
-        return interpolate(self.optical_depth, (xh, xc))
+        net = interpolate(self.optical_depth, (xh, xc)).astype(np.float64)
+        return net * below_first_row_factors(self.params, height, n_h)
 
     def transmittance_to_top(self, height_m, cos_zenith) -> np.ndarray:
         """Sun/sky transmittance from a point to the top of the atmosphere; 0 where the ray
