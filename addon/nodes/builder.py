@@ -16,6 +16,7 @@ class Graph:
         self.nodes = tree.nodes
         self.links = tree.links
         self._column = 0
+        self._image_sources = {}
 
     def node(self, kind: str, **props):
         node = self.nodes.new(kind)
@@ -93,6 +94,19 @@ class Graph:
         return node.outputs["Vector"]
 
     def image(self, image: bpy.types.Image, uv, interpolation: str = "Linear"):
+        """Colour of ``image`` at texture coordinates ``uv`` (Linear or Closest filtering, edges
+        extended). Shader trees use an Image Texture node, compositor trees a Map UV node."""
+        if self.tree.bl_idname == "CompositorNodeTree":
+            source = self._image_sources.get(image.name)
+            if source is None:
+                source = self._image_sources[image.name] = self.node("CompositorNodeImage", image=image)
+            node = self.node("CompositorNodeMapUV")
+            self.links.new(source.outputs["Image"], node.inputs["Image"])
+            node.inputs["Interpolation"].default_value = "Bilinear" if interpolation == "Linear" else "Nearest"
+            node.inputs["Extension X"].default_value = "Extend"
+            node.inputs["Extension Y"].default_value = "Extend"
+            self.feed(node.inputs["UV"], uv)
+            return node.outputs["Image"]
         node = self.node("ShaderNodeTexImage", image=image, interpolation=interpolation, extension="EXTEND")
         self.feed(node.inputs["Vector"], uv)
         return node.outputs["Color"]

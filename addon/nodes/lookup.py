@@ -24,18 +24,22 @@ def height_coordinate(g, height, dims, params):
     return g.mul(u, dims[0] - 1), h
 
 
-def view_zenith_coordinate(g, cos_view, h, n_a, earth_radius):
-    """x_a of eq. (5) with Listing 2's halves; the horizon flag is decided per look-up."""
+def view_zenith_coordinate(g, cos_view, h, n_a, earth_radius, forced_flag=None):
+    """x_a of eq. (5) with Listing 2's halves and the horizon flag used. The flag is decided
+    per look-up unless ``forced_flag`` = (force 0/1, above 0/1) sockets pass an earlier one."""
     half = n_a // 2
     # c_h = -sqrt(h (2R + h)) / (R + h)
     c_h = g.math("MULTIPLY", -1.0, g.div(g.math("SQRT", g.mul(h, g.add(h, 2 * earth_radius))),
                                           g.add(h, earth_radius)))
     above = g.math("GREATER_THAN", cos_view, c_h)
+    if forced_flag is not None:
+        force, given = forced_flag
+        above = g.lerp(above, given, force)
     t_up = g.math("POWER", g.clamp(g.div(g.sub(cos_view, c_h), g.sub(1.0, c_h)), 0.0, 1.0), par.ALPHA_POWER)
     t_down = g.math("POWER", g.clamp(g.div(g.sub(c_h, cos_view), g.add(c_h, 1.0)), 0.0, 1.0), par.ALPHA_POWER)
     x_up = g.mul_add(t_up, half - 1, half)
     x_down = g.mul(t_down, half - 1)
-    return g.lerp(x_down, x_up, above)
+    return g.lerp(x_down, x_up, above), above
 
 
 def sun_zenith_coordinate(g, cos_sun, n_s):
@@ -77,7 +81,10 @@ def lower_node(g, x, n):
     return low, g.sub(x, low)
 
 
-def build_lookup_group(image, dims, params, filtering="HARDWARE"):
+COMPOSITOR_GROUP_NAME = "OLS Scattering Lookup (Compositor)"
+
+
+def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=False):
     """(Re)build the group for the scattering atlas ``image`` with table sizes ``dims``.
 
     ``filtering``: "HARDWARE" blends the two in-tile axes with the texture unit (4 fetches;
@@ -89,20 +96,27 @@ def build_lookup_group(image, dims, params, filtering="HARDWARE"):
         raise ValueError(f"filtering must be one of {FILTERING}, got {filtering!r}")
     n_h, n_a, n_s, n_t = dims
     width, height = n_t * n_a, n_h * n_s
-    tree = new_group(GROUP_NAME)
+    inputs = [("Height", "NodeSocketFloat", 0.0), ("Cos View Zenith", "NodeSocketFloat", 1.0),
+              ("Cos Sun Zenith", "NodeSocketFloat", 1.0), ("Cos Sun View", "NodeSocketFloat", 1.0)]
+    outputs = [("Radiance", "NodeSocketVector", None)]
+    if compositor:      # eq. (8) needs its second look-up on the first one's side of the seam
+        inputs += [("Force Horizon", "NodeSocketFloat", 0.0), ("Above Horizon", "NodeSocketFloat", 1.0)]
+        outputs += [("Above Horizon", "NodeSocketFloat", None)]
+    tree = new_group(COMPOSITOR_GROUP_NAME if compositor else GROUP_NAME,
+                     "CompositorNodeTree" if compositor else "ShaderNodeTree")
     tree["ols_filtering"] = filtering
-    g, gin, gout = group_io(tree,
-                            [("Height", "NodeSocketFloat", 0.0), ("Cos View Zenith", "NodeSocketFloat", 1.0),
-                             ("Cos Sun Zenith", "NodeSocketFloat", 1.0), ("Cos Sun View", "NodeSocketFloat", 1.0)],
-                            [("Radiance", "NodeSocketVector", None)])
+    g, gin, gout = group_io(tree, inputs, outputs)
     x_h, h = height_coordinate(g, gin.outputs["Height"], dims, params)
-    x_a = view_zenith_coordinate(g, gin.outputs["Cos View Zenith"], h, n_a, params.earth_radius)
+    forced = (gin.outputs["Force Horizon"], gin.outputs["Above Horizon"]) if compositor else None
+    x_a, above = view_zenith_coordinate(g, gin.outputs["Cos View Zenith"], h, n_a, params.earth_radius, forced)
+    if compositor:
+        g.links.new(above, gout.inputs["Above Horizon"])
     x_s = sun_zenith_coordinate(g, gin.outputs["Cos Sun Zenith"], n_s)
     x_t = sun_view_coordinate(g, gin.outputs["Cos Sun View"], n_t)
 
     def fetch(u_texel, v_texel, interpolation):
         """Texture value at texel coordinates (pixel units, centres at +0.5)."""
-        uv = g.combine(g.div(u_texel, width), g.div(v_texel, height), 0.0)
+        uv = g.combine(g.div(u_texel, width), g.div(v_texel, height), 1.0)   # z: Map UV's alpha
         return g.image(image, uv, interpolation=interpolation)
 
     if filtering == "HARDWARE":

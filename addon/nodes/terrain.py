@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 
 from .builder import group_io, new_group
-from .optical import ambient_skylight, transmittance_to_top
+from .optical import ambient_skylight, point_frame, transmittance_to_top
 
 GROUP_NAME = "OLS Terrain"
 INPUTS = [
@@ -34,9 +34,7 @@ def build_terrain_group(optical_depth_image, ambient_image, params):
     has_normal = g.math("GREATER_THAN", g.vmath("LENGTH", given), 0.5)
     normal = g.vmath("NORMALIZE", g.vlerp(geometry.outputs["Normal"], given, has_normal))
 
-    from_centre = g.vmath("ADD", geometry.outputs["Position"], (0.0, 0.0, params.earth_radius))
-    height = g.math("MAXIMUM", g.sub(g.vmath("LENGTH", from_centre), params.earth_radius), 0.0)
-    up = g.vmath("NORMALIZE", from_centre)
+    height, up = point_frame(g, geometry.outputs["Position"], params)
     sun = g.vmath("NORMALIZE", gin.outputs["Sun Direction"])
     cos_sun = g.vmath("DOT_PRODUCT", up, sun)
 

@@ -1,0 +1,79 @@
+"""The "OLS Aerial Perspective" compositor group on a Cycles render of the sample vs its numpy
+twin, lut_gen.aerial.aerial_perspective, fed the same render passes."""
+from importlib import import_module
+
+import numpy as np
+import pytest
+
+from render_util import render_rgb
+from test_tone_mapping import sample_scene
+
+bpy = pytest.importorskip("bpy")
+
+
+def compositor_output(scene, build):
+    """Point the scene's compositor at a fresh tree whose output is build(tree, render_layers)."""
+    tree = bpy.data.node_groups.new("test output", "CompositorNodeTree")
+    tree.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
+    layers = tree.nodes.new("CompositorNodeRLayers")
+    output = tree.nodes.new("NodeGroupOutput")
+    tree.links.new(build(tree, layers), output.inputs[0])
+    scene.compositing_node_group = tree
+
+
+def test_aerial_perspective_pass_matches_twin(addon_package, tmp_path, monkeypatch):
+    monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "cache"))
+    pkg = addon_package
+    scene = sample_scene(pkg)
+    assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+    scene.view_layers[0].use_pass_position = True
+    scene.view_layers[0].use_pass_z = True
+    scene.render.resolution_x, scene.render.resolution_y = 64, 36
+    scene.cycles.samples = 4
+    scene.cycles.seed = 3
+    nodes = import_module(pkg.__name__ + ".addon.nodes")
+    luts_mod = import_module(pkg.__name__ + ".addon.scene.luts")
+    sun_mod = import_module(pkg.__name__ + ".addon.scene.sun")
+    directory = import_module(pkg.__name__ + ".addon.ops").bake_if_needed(pkg.lut_gen.AtmosphereParams(), "draft")
+    luts = pkg.lut_gen.load(directory)
+    images = luts_mod.load_images(directory)
+    nodes.build_lookup_group(images["multiple"], luts.dims, luts.params, compositor=True)
+    aerial_group = nodes.build_aerial_group(images["optical_depth"], luts.params)
+    camera = np.array(scene.camera.matrix_world.translation)
+    sun = sun_mod.direction_to_sun(sun_mod.find_sun(scene))
+
+    raw = render_rgb(scene, tmp_path / "raw.exr")
+    compositor_output(scene, lambda tree, layers: layers.outputs["Position"])
+    position = render_rgb(scene, tmp_path / "position.exr", composite=True)
+
+    def depth_image(tree, layers):
+        combine = tree.nodes.new("CompositorNodeCombineColor")
+        for name in ("Red", "Green", "Blue"):
+            tree.links.new(layers.outputs["Depth"], combine.inputs[name])
+        return combine.outputs["Image"]
+    compositor_output(scene, depth_image)
+    depth = render_rgb(scene, tmp_path / "depth.exr", composite=True)[..., 0]
+
+    def aerial(tree, layers):
+        node = tree.nodes.new("CompositorNodeGroup")
+        node.node_tree = aerial_group
+        tree.links.new(layers.outputs["Image"], node.inputs["Image"])
+        tree.links.new(layers.outputs["Position"], node.inputs["Position"])
+        tree.links.new(layers.outputs["Depth"], node.inputs["Depth"])
+        node.inputs["Camera Position"].default_value = camera
+        node.inputs["Sun Direction"].default_value = sun
+        node.inputs["Sun Strength"].default_value = 10.0
+        node.inputs["Scattering Scale"].default_value = 0.5
+        return node.outputs["Image"]
+    compositor_output(scene, aerial)
+    seen = render_rgb(scene, tmp_path / "aerial.exr", composite=True)
+
+    geometry = depth < 1e9
+    assert geometry.mean() > 0.3 and (~geometry).mean() > 0.1           # terrain and sky in view
+    twin = pkg.lut_gen.aerial.aerial_perspective(luts, camera, position[geometry], raw[geometry], sun,
+                                                 sun_strength=10.0, scattering_scale=0.5)
+    err = np.abs(seen[geometry] - twin) / np.maximum(twin, 1e-6)
+    assert np.median(err) <= 0.03
+    np.testing.assert_array_equal(seen[~geometry], raw[~geometry])      # the sky passes through
+    far = geometry & (depth > np.percentile(depth[geometry], 75))
+    assert (seen[far] - raw[far]).mean() > 0                             # distant terrain gains air light
