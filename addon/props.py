@@ -79,6 +79,8 @@ _LIVE_NOW = {
     "luminance_saturation",
     "auto_exposure",
     "tone_mapping_operator",
+    "enable_light_scattering",
+    "lighting_only",
 }
 LATER_ISSUE = frozenset(name for names in PROPERTIES_BY_SET.values() for name in names) - _LIVE_NOW
 
@@ -106,6 +108,7 @@ def _rebake_soon(settings, context):
 
 
 def _sync_tone_mapping(settings, context):
+    """Compositor inputs follow the settings (drivers on a compositor tree do not reach renders)."""
     if context.scene is not None:
         from .scene import compositor
         compositor.sync_settings(context.scene)
@@ -141,6 +144,7 @@ class OLSSettings(bpy.types.PropertyGroup):
         name="Enable Light Scattering",
         description=_d("enable_light_scattering", "Enable or disable the light scattering effect"),
         default=True,
+        update=_sync_tone_mapping,
     )
     enable_light_shafts: BoolProperty(
         name="Enable Light Shafts",
@@ -221,6 +225,7 @@ class OLSSettings(bpy.types.PropertyGroup):
         description="Intensity of the scattering effect (almost no effect with automatic "
                     "exposure tone mapping)",
         default=0.5, min=0.0, soft_max=2.0, max=100.0,
+        update=_sync_tone_mapping,
     )
     show_sampling: BoolProperty(
         name="Show Sampling",
@@ -258,6 +263,7 @@ class OLSSettings(bpy.types.PropertyGroup):
         name="Lighting Only",
         description=_d("lighting_only", "Show the light scattering effects only"),
         default=False,
+        update=_sync_tone_mapping,
     )
 
     # -- additional -------------------------------------------------------------------------

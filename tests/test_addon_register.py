@@ -93,7 +93,8 @@ def test_every_control_is_a_property(addon_package):
     assert set(names) - props.LATER_ISSUE == {
         "scattering_scale", "use_custom_scattering_coeffs", "rayleigh_color", "mie_color",
         "aerosol_density", "aerosol_absorption", "animate_sun",
-        "middle_gray", "white_point", "luminance_saturation", "auto_exposure", "tone_mapping_operator"}
+        "middle_gray", "white_point", "luminance_saturation", "auto_exposure", "tone_mapping_operator",
+        "enable_light_scattering", "lighting_only"}
     for name in names:
         description = rna[name].description
         assert description, name

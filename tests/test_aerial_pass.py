@@ -77,3 +77,27 @@ def test_aerial_perspective_pass_matches_twin(addon_package, tmp_path, monkeypat
     np.testing.assert_array_equal(seen[~geometry], raw[~geometry])      # the sky passes through
     far = geometry & (depth > np.percentile(depth[geometry], 75))
     assert (seen[far] - raw[far]).mean() > 0                             # distant terrain gains air light
+
+
+def test_setup_wires_aerial_perspective_and_its_controls(addon_package, tmp_path, monkeypatch):
+    monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "cache"))
+    scene = sample_scene(addon_package)
+    assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+    tree = scene.compositing_node_group
+    aerial = tree.nodes["OLS Aerial Perspective"]
+    assert aerial.inputs["Position"].is_linked and aerial.inputs["Depth"].is_linked
+    np.testing.assert_allclose(aerial.inputs["Camera Position"].default_value, scene.camera.matrix_world.translation)
+    scene.render.resolution_x, scene.render.resolution_y = 48, 27
+    scene.cycles.samples = 2
+    scene.cycles.seed = 5
+    scene.ols.auto_exposure = False                       # same exposure for every variant
+    on = render_rgb(scene, tmp_path / "on.exr", composite=True)
+    scene.ols.enable_light_scattering = False
+    assert aerial.inputs["Enable"].default_value == 0.0
+    off = render_rgb(scene, tmp_path / "off.exr", composite=True)
+    scene.ols.enable_light_scattering = True
+    scene.ols.lighting_only = True
+    only = render_rgb(scene, tmp_path / "only.exr", composite=True)
+    terrain = slice(14, 27)                                # lower half of the frame: the valley
+    assert np.abs(on - off)[terrain].mean() > 1e-3         # the air between camera and terrain shows
+    assert only[terrain].mean() < on[terrain].mean()       # air light alone is dimmer than the scene

@@ -101,7 +101,9 @@ def test_setup_inserts_tone_mapping_and_unwire_restores_the_users_tree(addon_pac
 
     assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
     node = tree.nodes["OLS Tone Mapping"]
-    assert output.inputs[0].links[0].from_node == node and node.inputs["Image"].links[0].from_node == blur
+    aerial = tree.nodes["OLS Aerial Perspective"]
+    assert output.inputs[0].links[0].from_node == node and node.inputs["Image"].links[0].from_node == aerial
+    assert aerial.inputs["Image"].links[0].from_node == blur
     assert scene.view_settings.view_transform == "Standard"
     scene.ols.tone_mapping_operator = "REINHARD"
     assert node.inputs["Operator"].default_value == 1.0
@@ -111,6 +113,7 @@ def test_setup_inserts_tone_mapping_and_unwire_restores_the_users_tree(addon_pac
     wiring = import_module(addon_package.__name__ + ".addon.scene.wiring")
     wiring.unwire_scene(scene)
     assert "OLS Tone Mapping" not in tree.nodes and output.inputs[0].links[0].from_node == blur
+    assert not any(n.name.startswith("OLS") for n in tree.nodes)
     assert scene.view_settings.view_transform == "AgX" and scene.compositing_node_group == tree
 
 
@@ -122,6 +125,7 @@ def test_tone_mapped_sample_render_matches_the_twin(addon_package, tmp_path, mon
     scene = sample_scene(addon_package)
     assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
     assert bpy.data.node_groups.get("OLS Compositing") == scene.compositing_node_group
+    scene.ols.enable_light_scattering = False           # tone mapping alone (aerial: test_aerial_pass)
     scene.render.resolution_x, scene.render.resolution_y = 64, 36
     scene.cycles.samples = 4
     scene.cycles.seed = 1

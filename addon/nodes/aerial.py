@@ -23,6 +23,7 @@ INPUTS = [
     ("Sun Strength", "NodeSocketFloat", 10.0),
     ("Scattering Scale", "NodeSocketFloat", 0.5),
     ("Enable", "NodeSocketFloat", 1.0),
+    ("Lighting Only", "NodeSocketFloat", 0.0),
 ]
 
 
@@ -69,7 +70,8 @@ def build_aerial_group(optical_depth_image, params):
 
     inscatter = g.vmath("MAXIMUM", g.vmath("SUBTRACT", near, g.vmath("MULTIPLY", transmittance, far)), (0.0, 0.0, 0.0))
     air_light = g.vscale(inscatter, g.mul(gin.outputs["Sun Strength"], gin.outputs["Scattering Scale"]))
-    seen = g.vmath("ADD", g.vmath("MULTIPLY", gin.outputs["Image"], transmittance), air_light)
+    surface = g.vscale(g.vmath("MULTIPLY", gin.outputs["Image"], transmittance), g.sub(1.0, gin.outputs["Lighting Only"]))
+    seen = g.vmath("ADD", surface, air_light)
     geometry = g.mul(g.math("LESS_THAN", gin.outputs["Depth"], SKY_DEPTH), gin.outputs["Enable"])
     result = g.vlerp(gin.outputs["Image"], seen, geometry)
     merge = g.node("CompositorNodeCombineColor")

@@ -1,4 +1,4 @@
-"""The tone-mapping pass in the scene's compositor, inserted without destroying a tree the
+"""The aerial-perspective and tone-mapping passes in the scene's compositor, inserted without destroying a tree the
 user already has: our group node goes onto the link that feeds the tree's output, and
 ``unwire_compositor`` puts that link back. The view transform is set to Standard (so nothing
 tone maps twice) and restored on unwire."""
@@ -8,9 +8,13 @@ import bpy
 
 from .. import nodes
 from ..post import tone_mapping
+from . import sun as sun_lamps
 
 TREE_NAME = "OLS Compositing"
 NODE_NAME = "OLS Tone Mapping"
+AERIAL_NODE = "OLS Aerial Perspective"
+LAYERS_NODE = "OLS Render Layers"
+PREVIOUS_PASSES = "ols_previous_passes"
 CREATED_TREE = "ols_created_compositor"
 PREVIOUS_VIEW = "ols_previous_view_transform"
 SOURCE = "ols_source"                 # on our node: the node it was inserted after ...
@@ -62,6 +66,7 @@ def wire_compositor(scene):
         tree.links.new(source.outputs[index], node.inputs["Image"])
         tree.links.new(node.outputs["Image"], output.inputs[0])
     node.node_tree = group
+    _insert_aerial(scene, tree, node)
     sync_settings(scene)
     if scene.view_settings.view_transform != "Standard":
         scene[PREVIOUS_VIEW] = scene.view_settings.view_transform
@@ -70,8 +75,46 @@ def wire_compositor(scene):
     return node
 
 
+def _insert_aerial(scene, tree, tone_node):
+    """Put the aerial-perspective group in front of the tone mapping, fed by the Position and
+    Depth passes of a Render Layers node (ours, so the user's nodes keep their links)."""
+    aerial = tree.nodes.get(AERIAL_NODE)
+    if aerial is None:
+        link = tone_node.inputs["Image"].links[0]
+        aerial = tree.nodes.new("CompositorNodeGroup")
+        aerial.node_tree = bpy.data.node_groups[nodes.AERIAL_GROUP]
+        aerial.name = AERIAL_NODE
+        aerial.location = (tone_node.location.x - 200, tone_node.location.y)
+        source_socket = link.from_socket
+        tree.links.remove(link)
+        tree.links.new(source_socket, aerial.inputs["Image"])
+        tree.links.new(aerial.outputs["Image"], tone_node.inputs["Image"])
+    layers = tree.nodes.get(LAYERS_NODE) or tree.nodes.new("CompositorNodeRLayers")
+    layers.name = LAYERS_NODE
+    layer = scene.view_layers[0]
+    if PREVIOUS_PASSES not in scene:
+        scene[PREVIOUS_PASSES] = [int(layer.use_pass_position), int(layer.use_pass_z)]
+    layer.use_pass_position = layer.use_pass_z = True
+    tree.links.new(layers.outputs["Position"], aerial.inputs["Position"])
+    tree.links.new(layers.outputs["Depth"], aerial.inputs["Depth"])
+
+
 def unwire_compositor(scene):
     tree = scene.compositing_node_group
+    if tree is not None and not scene.get(CREATED_TREE):
+        aerial = tree.nodes.get(AERIAL_NODE)
+        if aerial is not None:
+            source = aerial.inputs["Image"].links[0].from_socket if aerial.inputs["Image"].links else None
+            tone = tree.nodes.get(NODE_NAME)
+            tree.nodes.remove(aerial)
+            if source is not None and tone is not None:
+                tree.links.new(source, tone.inputs["Image"])
+        if tree.nodes.get(LAYERS_NODE) is not None:
+            tree.nodes.remove(tree.nodes[LAYERS_NODE])
+    if PREVIOUS_PASSES in scene:
+        layer = scene.view_layers[0]
+        layer.use_pass_position, layer.use_pass_z = (bool(v) for v in scene[PREVIOUS_PASSES])
+        del scene[PREVIOUS_PASSES]
     if tree is not None:
         node = tree.nodes.get(NODE_NAME)
         if scene.get(CREATED_TREE):
@@ -105,3 +148,15 @@ def sync_settings(scene):
               "Operator": float(tone_mapping.OPERATORS.index(settings.tone_mapping_operator))}
     for socket, value in values.items():
         node.inputs[socket].default_value = value
+    aerial = tree.nodes.get(AERIAL_NODE)
+    if aerial is None or aerial.node_tree is None:
+        return
+    sun = sun_lamps.find_sun(scene)
+    aerial.inputs["Enable"].default_value = float(settings.enable_light_scattering)
+    aerial.inputs["Lighting Only"].default_value = float(settings.lighting_only)
+    aerial.inputs["Scattering Scale"].default_value = settings.scattering_scale
+    if scene.camera is not None:
+        aerial.inputs["Camera Position"].default_value = scene.camera.matrix_world.translation
+    if sun is not None:
+        aerial.inputs["Sun Direction"].default_value = sun_lamps.direction_to_sun(sun)
+        aerial.inputs["Sun Strength"].default_value = sun.data.energy

@@ -44,6 +44,8 @@ def build_groups(bake_dir, engine="CYCLES"):
     nodes.build_lookup_group(images["multiple"], dims, params, nodes.lookup.filtering_for_engine(engine))
     nodes.build_sky_group(images["optical_depth"], params, skylight.ensure_image())
     nodes.build_terrain_group(images["optical_depth"], images["ambient"], params)
+    nodes.build_lookup_group(images["multiple"], dims, params, compositor=True)
+    nodes.build_aerial_group(images["optical_depth"], params)
     return images, params
 
 
@@ -186,6 +188,7 @@ def refresh(scene, force=False):
     if info is None or sun is None:
         return
     sun_lamps.update_sun_colour(sun, info.origin_transmittance)
+    compositor.sync_settings(scene)
     height = scene.camera.matrix_world.translation.z if scene.camera else 0.0
     skylight.update(info.key, info.multiple, info.params, info.dims, sun_lamps.direction_to_sun(sun), height, force)
 
