@@ -45,10 +45,13 @@ def segment_transmittance(luts: Luts, start, end) -> np.ndarray:
     direction = end - start
     length = np.linalg.norm(direction, axis=-1, keepdims=True)
     direction = direction / np.maximum(length, 1e-9)
-    forward_start, hits = _net_density(luts, start, direction)
-    forward_end, _ = _net_density(luts, end, direction)
+    forward_start, hits_from_start = _net_density(luts, start, direction)
+    forward_end, hits_from_end = _net_density(luts, end, direction)
     backward_end, _ = _net_density(luts, end, -direction)
     backward_start, _ = _net_density(luts, start, -direction)
+    # Where the forward ray from either end runs into the ground its table entry is the 1e20
+    # marker; the reversed ray then gives the difference (near-horizontal segments).
+    hits = hits_from_start | hits_from_end
     net = np.where(hits[..., None], backward_end - backward_start, forward_start - forward_end)
     optical_depth = np.maximum(net, 0.0) @ luts.params.extinction_matrix()
     return np.where(length > 1e-6, np.exp(-np.minimum(optical_depth, 80.0)), 1.0)

@@ -61,9 +61,11 @@ def build_aerial_group(optical_depth_image, params):
     forward_p = net_density_to_top(g, optical_depth_image, h_p, cos_view_p, params)
     backward_p = net_density_to_top(g, optical_depth_image, h_p, g.vmath("DOT_PRODUCT", reverse, up_p), params)
     backward_c = net_density_to_top(g, optical_depth_image, h_c, g.vmath("DOT_PRODUCT", reverse, up_c), params)
-    c_h = g.mul(-1.0, g.div(g.math("SQRT", g.mul(h_c, g.add(h_c, 2 * params.earth_radius))),
-                            g.add(h_c, params.earth_radius)))
-    hits = g.math("LESS_THAN", cos_view_c, c_h)
+    def below_horizon(height, cos_view):
+        c_h = g.mul(-1.0, g.div(g.math("SQRT", g.mul(height, g.add(height, 2 * params.earth_radius))),
+                                g.add(height, params.earth_radius)))
+        return g.math("LESS_THAN", cos_view, c_h)
+    hits = g.math("MAXIMUM", below_horizon(h_c, cos_view_c), below_horizon(h_p, cos_view_p))
     net = [g.math("MAXIMUM", g.lerp(g.sub(fc, fp), g.sub(bp, bc), hits), 0.0)
            for fc, fp, bp, bc in zip(forward_c, forward_p, backward_p, backward_c)]
     transmittance = transmittance_from_net_density(g, *net, params)
