@@ -20,15 +20,13 @@ RESOLUTION_ITEMS = [("default", "Default", "The sample's 32 x 128 x 64 x 16 tabl
 
 
 def bake_directory(params, resolution="default") -> Path:
-    return lut_gen.default_cache_root() / lut_gen.cache.key_for(params, resolution)
+    return lut_gen.cache.cache_directory(params, resolution)
 
 
 def bake_if_needed(params, resolution, progress=None) -> Path:
-    directory = bake_directory(params, resolution)
-    if lut_gen.exr_io.read_key(directory) != directory.name:
-        luts_ = lut_gen.bake(params, resolution=resolution, progress=progress)
-        lut_gen.save(luts_, directory, overwrite=True)
-    return directory
+    """The cache folder of these tables, baked first when it does not hold them (a damaged
+    or foreign bake there is replaced: the folder is named by the key)."""
+    return lut_gen.cache.bake_into(params, resolution=resolution, progress=progress, overwrite=True)[0]
 
 
 def terrain_candidates(context):

@@ -74,9 +74,7 @@ def segment_inscattering(luts: Luts, start, end, sun_direction, table: str = "mu
     sun = np.asarray(sun_direction, float) / np.linalg.norm(sun_direction)
     direction = end - start
     direction = direction / np.maximum(np.linalg.norm(direction, axis=-1, keepdims=True), 1e-9)
-    near, above = _look_up(luts, start, direction, sun, table)
-    far, _ = _look_up(luts, end, direction, sun, table, above_horizon=above)
-    return np.maximum(near - segment_transmittance(luts, start, end) * far, 0.0)
+    return _eq8(luts, start, end, direction, sun, table, 1.0, segment_transmittance(luts, start, end))
 
 
 def aerial_perspective(luts: Luts, camera, points, surface_radiance, sun_direction, sun_strength=1.0,
@@ -137,8 +135,14 @@ def light_shafts(luts: Luts, camera, end, sun_direction, is_lit, steps: int = 32
 
 
 def _section(luts, camera, start, end, direction, sun, table):
-    """Eq. (8) for the lit section start -> end seen from the camera (look-ups share a flag)."""
+    """Eq. (8) for the lit section start -> end seen from the camera."""
+    return _eq8(luts, start, end, direction, sun, table, segment_transmittance(luts, camera, start),
+                segment_transmittance(luts, camera, end))
+
+
+def _eq8(luts, start, end, direction, sun, table, start_transmittance, end_transmittance):
+    """T_start L(start) - T_end L(end), both look-ups on the side of the horizon seam the first
+    one chose (Listing 2)."""
     near, above = _look_up(luts, start, direction, sun, table)
     far, _ = _look_up(luts, end, direction, sun, table, above_horizon=above)
-    return np.maximum(segment_transmittance(luts, camera, start) * near
-                      - segment_transmittance(luts, camera, end) * far, 0.0)
+    return np.maximum(start_transmittance * near - end_transmittance * far, 0.0)

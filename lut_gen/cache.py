@@ -24,15 +24,31 @@ def key_for(params: AtmosphereParams, resolution="default", orders: int = 4) -> 
     return bake_key(params.validate(), res.scattering, res.optical_depth, res.ambient, orders)
 
 
+def cache_directory(params: AtmosphereParams, resolution="default", orders: int = 4) -> Path:
+    """The folder of the cache root that holds (or will hold) the bake for these inputs."""
+    return default_cache_root() / key_for(params, resolution, orders)
+
+
+def bake_into(params: AtmosphereParams, *, resolution="default", orders: int = 4, directory=None,
+              progress: Optional[Progress] = None, overwrite: bool = False):
+    """(directory, luts): bake and save unless ``directory`` (default: cache_directory) already
+    holds this bake, in which case luts is None and nothing is read beyond a header."""
+    params = params.validate()
+    key = key_for(params, resolution, orders)
+    directory = Path(directory) if directory else default_cache_root() / key
+    if read_key(directory) == key:
+        return directory, None
+    luts = bake(params, resolution=resolution, orders=orders, progress=progress)
+    save(luts, directory, overwrite=overwrite)
+    return directory, luts
+
+
 def cached_bake(params: Optional[AtmosphereParams] = None, *, resolution="default", orders: int = 4,
                 directory=None, progress: Optional[Progress] = None):
     """(luts, directory, hit): load the bake for these inputs from ``directory`` (default: a
     folder named by the bake key under the cache root) or bake and save it there."""
-    params = (params or AtmosphereParams()).validate()
-    key = key_for(params, resolution, orders)
-    directory = Path(directory) if directory else default_cache_root() / key
-    if read_key(directory) == key:
+    directory, luts = bake_into(params or AtmosphereParams(), resolution=resolution, orders=orders,
+                                directory=directory, progress=progress)
+    if luts is None:
         return load(directory), directory, True
-    luts = bake(params, resolution=resolution, orders=orders, progress=progress)
-    save(luts, directory)
     return luts, directory, False
