@@ -5,6 +5,7 @@ tone maps twice) and restored on unwire."""
 from __future__ import annotations
 
 import bpy
+import numpy as np
 
 from .. import nodes
 from ..post import tone_mapping
@@ -135,28 +136,36 @@ def unwire_compositor(scene):
 
 
 def sync_settings(scene):
-    """Copy the tone-mapping controls of scene.ols onto our compositor node. (Drivers on a
-    compositor tree do not reach the render, so the settings' update callbacks call this.)"""
+    """Copy the controls of scene.ols, the camera position and the sun onto our compositor
+    nodes. (Drivers on a compositor tree do not reach the render, so the settings' update
+    callbacks and the scene handlers call this.)"""
     tree = scene.compositing_node_group
     node = tree.nodes.get(NODE_NAME) if tree is not None else None
     if node is None or node.node_tree is None:
         return
     settings = scene.ols
-    values = {"Middle Gray": settings.middle_gray, "White Point": settings.white_point,
-              "Luminance Saturation": settings.luminance_saturation,
-              "Auto Exposure": float(settings.auto_exposure),
-              "Operator": float(tone_mapping.OPERATORS.index(settings.tone_mapping_operator))}
-    for socket, value in values.items():
-        node.inputs[socket].default_value = value
+    _set_inputs(node, {"Middle Gray": settings.middle_gray, "White Point": settings.white_point,
+                       "Luminance Saturation": settings.luminance_saturation,
+                       "Auto Exposure": float(settings.auto_exposure),
+                       "Operator": float(tone_mapping.OPERATORS.index(settings.tone_mapping_operator))})
     aerial = tree.nodes.get(AERIAL_NODE)
     if aerial is None or aerial.node_tree is None:
         return
-    sun = sun_lamps.find_sun(scene)
-    aerial.inputs["Enable"].default_value = float(settings.enable_light_scattering)
-    aerial.inputs["Lighting Only"].default_value = float(settings.lighting_only)
-    aerial.inputs["Scattering Scale"].default_value = settings.scattering_scale
+    values = {"Enable": float(settings.enable_light_scattering), "Lighting Only": float(settings.lighting_only),
+              "Scattering Scale": settings.scattering_scale}
     if scene.camera is not None:
-        aerial.inputs["Camera Position"].default_value = scene.camera.matrix_world.translation
+        values["Camera Position"] = tuple(scene.camera.matrix_world.translation)
+    sun = sun_lamps.find_sun(scene)
     if sun is not None:
-        aerial.inputs["Sun Direction"].default_value = sun_lamps.direction_to_sun(sun)
-        aerial.inputs["Sun Strength"].default_value = sun.data.energy
+        values["Sun Direction"] = tuple(sun_lamps.direction_to_sun(sun))
+        values["Sun Strength"] = sun.data.energy
+    _set_inputs(aerial, values)
+
+
+def _set_inputs(node, values: dict):
+    """Assign only what changed: this runs from depsgraph handlers, and every assignment
+    would trigger another depsgraph update."""
+    for socket, value in values.items():
+        current = node.inputs[socket].default_value     # stored as float32: compare with a tolerance
+        if not np.allclose(np.atleast_1d(current), np.atleast_1d(value), rtol=1e-6, atol=1e-9):
+            node.inputs[socket].default_value = value

@@ -42,8 +42,12 @@ def create_sun(scene, elevation_deg=8.0, azimuth_deg=0.0):
 def set_sun_angles(sun, elevation_deg, azimuth_deg):
     """Point the lamp so the direction toward the sun has this elevation and azimuth (from +Y
     toward +X). The lamp shines along its local -Z, so local +Z points at the sun."""
-    sun.rotation_mode = "XYZ"
-    sun.rotation_euler = (math.radians(90.0 - elevation_deg), 0.0, math.radians(180.0 - azimuth_deg))
+    rotation = (math.radians(90.0 - elevation_deg), 0.0, math.radians(180.0 - azimuth_deg))
+    # Called from depsgraph handlers (animate_sun): an unchanged rotation is not written back,
+    # or every write would trigger the next update.
+    if sun.rotation_mode != "XYZ" or not np.allclose(tuple(sun.rotation_euler), rotation, atol=1e-7):
+        sun.rotation_mode = "XYZ"
+        sun.rotation_euler = rotation
 
 
 def direction_to_sun(sun) -> np.ndarray:
