@@ -89,8 +89,8 @@ def light_shafts(luts: Luts, camera, end, sun_direction, is_lit, steps: int = 32
                  single_mode: str = "LUT", multiple_mode: str = "UNOCCLUDED") -> np.ndarray:
     """(..., 3) in-scattering along camera -> end with sun shadows, per unit sun.
 
-    ``is_lit(points) -> bool array`` tells whether the sun reaches a world point (the shadow
-    map). The march takes ``steps`` samples at step centres and finds the lit length and the
+    ``is_lit(points) -> array`` tells how much of the sun reaches world points (the shadow
+    map: 0 or 1, or fractions with PCF). The march takes ``steps`` samples at step centres and finds the lit length and the
     distance to the first lit sample (the sample's D_lit, D_start), then applies the modes.
     """
     if single_mode not in SINGLE_MODES or multiple_mode not in MULTIPLE_MODES:
@@ -105,9 +105,10 @@ def light_shafts(luts: Luts, camera, end, sun_direction, is_lit, steps: int = 32
     step = length / steps
     t = (np.arange(steps) + 0.5)[(None,) * length.ndim]                        # (..., steps)
     samples = camera[..., None, :] + direction[..., None, :] * (t * step[..., None])[..., None]
-    lit = np.asarray(is_lit(samples), dtype=bool)                               # (..., steps)
+    lit = np.asarray(is_lit(samples), dtype=np.float64)                        # (..., steps)
     lit_length = lit.sum(axis=-1) * step
-    first_lit = np.where(lit.any(axis=-1), np.argmax(lit, axis=-1) * step, length)
+    any_light = lit > 0.0
+    first_lit = np.where(any_light.any(axis=-1), np.argmax(any_light, axis=-1) * step, length)
 
     result = np.zeros(length.shape + (3,))
     if single_mode == "INTEGRATION":

@@ -84,8 +84,9 @@ def lower_node(g, x, n):
 COMPOSITOR_GROUP_NAME = "OLS Scattering Lookup (Compositor)"
 
 
-def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=False):
-    """(Re)build the group for the scattering atlas ``image`` with table sizes ``dims``.
+def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=False, name=None):
+    """(Re)build the group ``name`` (default: GROUP_NAME or COMPOSITOR_GROUP_NAME) for the
+    scattering atlas ``image`` with table sizes ``dims``.
 
     ``filtering``: "HARDWARE" blends the two in-tile axes with the texture unit (4 fetches;
     Cycles, which has no mipmaps). "MANUAL" fetches texel centres with Closest interpolation and
@@ -102,7 +103,7 @@ def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=Fal
     if compositor:      # eq. (8) needs its second look-up on the first one's side of the seam
         inputs += [("Force Horizon", "NodeSocketFloat", 0.0), ("Above Horizon", "NodeSocketFloat", 1.0)]
         outputs += [("Above Horizon", "NodeSocketFloat", None)]
-    tree = new_group(COMPOSITOR_GROUP_NAME if compositor else GROUP_NAME,
+    tree = new_group(name or (COMPOSITOR_GROUP_NAME if compositor else GROUP_NAME),
                      "CompositorNodeTree" if compositor else "ShaderNodeTree")
     tree["ols_filtering"] = filtering
     g, gin, gout = group_io(tree, inputs, outputs)

@@ -46,3 +46,28 @@ def transmittance_to_top(g, image, height, cos_zenith, params):
 def ambient_skylight(g, image, cos_sun_zenith):
     """E_sky per unit sun for the sun's zenith cosine. Twin: lut_gen.Luts.ambient_skylight."""
     return g.image(image, g.combine(g.mul_add(cos_sun_zenith, 0.5, 0.5), 0.5, 1.0))
+
+
+def below_horizon(g, height, cos_view, params):
+    """1 where a ray from ``height`` with zenith cosine ``cos_view`` runs into the Earth."""
+    c_h = g.mul(-1.0, g.div(g.math("SQRT", g.mul(height, g.add(height, 2 * params.earth_radius))),
+                            g.add(height, params.earth_radius)))
+    return g.math("LESS_THAN", cos_view, c_h)
+
+
+def segment_transmittance(g, image, start_frame, end_frame, direction, params):
+    """Transmittance between two points given as (height, up) frames, ``direction`` the unit
+    vector from start to end: net density to the top from the start minus from the end, along
+    the reversed ray where the forward one from either end runs into the ground (the table
+    holds 1e20 there). Twin: lut_gen.aerial.segment_transmittance."""
+    (h_s, up_s), (h_e, up_e) = start_frame, end_frame
+    reverse = g.vscale(direction, -1.0)
+    cos_s, cos_e = g.vmath("DOT_PRODUCT", direction, up_s), g.vmath("DOT_PRODUCT", direction, up_e)
+    forward_s = net_density_to_top(g, image, h_s, cos_s, params)
+    forward_e = net_density_to_top(g, image, h_e, cos_e, params)
+    backward_e = net_density_to_top(g, image, h_e, g.vmath("DOT_PRODUCT", reverse, up_e), params)
+    backward_s = net_density_to_top(g, image, h_s, g.vmath("DOT_PRODUCT", reverse, up_s), params)
+    hits = g.math("MAXIMUM", below_horizon(g, h_s, cos_s, params), below_horizon(g, h_e, cos_e, params))
+    net = [g.math("MAXIMUM", g.lerp(g.sub(fs, fe), g.sub(be, bs), hits), 0.0)
+           for fs, fe, be, bs in zip(forward_s, forward_e, backward_e, backward_s)]
+    return transmittance_from_net_density(g, *net, params)

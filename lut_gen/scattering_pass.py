@@ -1,0 +1,123 @@
+"""The whole light-scattering compositor pass in numpy, per pixel: camera, render passes
+(image, position, depth), sun shadow cascades and the baked tables -> radiance.
+
+This is the twin the "OLS Aerial Perspective" and "OLS Light Shafts" compositor groups are
+tested against, and the brute-force per-pixel reference for later techniques. It runs on render
+passes saved to a multilayer EXR (``load_render_passes``).
+
+Per pixel, with E the surface point (geometry) or the point where the view ray leaves the last
+shadow cascade (sky):
+    geometry: L_surface T(C->P) + S(C->E) x sun x scale
+    sky:      L_sky + (S(C->E) - S_unshadowed(C->E)) x sun x scale
+where S is the light-shaft in-scattering (lut_gen.aerial.light_shafts, the sample's modes) and
+S_unshadowed is eq. (8) over the multiple-scattering table, which the rendered sky already holds.
+Without light shafts S = S_unshadowed (aerial perspective only).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import aerial
+from .sampling import Luts
+from .shadow_map import CASCADE_COLORS, Camera, ShadowCascades, select_cascade, visibility
+
+SKY_DEPTH = 1e9                 # depth-pass values at or beyond this are sky (no geometry)
+MIN_FORWARD_COSINE = 1e-3       # keeps the sky march length finite for rays across the view plane
+
+
+@dataclass
+class PassSettings:
+    """The scene.ols controls the pass reads (the sample's names)."""
+    enable_light_scattering: bool = True
+    enable_light_shafts: bool = True
+    num_integration_steps: int = 30
+    single_scattering_mode: str = "LUT"
+    multiple_scattering_mode: str = "UNOCCLUDED"
+    smooth_shadows: bool = True
+    best_cascade_search: bool = True
+    first_cascade_to_ray_march: int = 0
+    show_cascades: bool = False
+    scattering_scale: float = 0.5
+    lighting_only: bool = False
+    sun_strength: float = 10.0
+
+
+def march_ends(camera: Camera, directions, position, depth, far: float):
+    """(end points (..., 3), geometry mask): the surface where there is one, else the point at
+    view depth ``far`` along the pixel's ray."""
+    geometry = np.asarray(depth) < SKY_DEPTH
+    along = far / np.maximum(directions @ camera.forward, MIN_FORWARD_COSINE)
+    sky_end = camera.position + directions * along[..., None]
+    return np.where(geometry[..., None], position, sky_end), geometry
+
+
+def scattering_pass(luts: Luts, image, position, depth, camera: Camera, sun_direction,
+                    cascades: ShadowCascades | None, settings: PassSettings) -> np.ndarray:
+    """(H, W, 3) radiance; arrays are (H, W, ...) with rows bottom to top, as Blender's."""
+    image = np.asarray(image, dtype=np.float64)[..., :3]
+    if not settings.enable_light_scattering:
+        return image.copy()
+    sun = np.asarray(sun_direction, dtype=np.float64) / np.linalg.norm(sun_direction)
+    height, width = image.shape[:2]
+    directions = camera.view_directions(width, height)
+    far = cascades.far_depths[-1] if cascades is not None else None
+    end, geometry = march_ends(camera, directions, position, depth, far if far is not None else 1.0)
+    scale = settings.sun_strength * settings.scattering_scale
+    transmittance = aerial.segment_transmittance(luts, camera.position, end)
+    surface = image * transmittance * (0.0 if settings.lighting_only else 1.0)
+    unshadowed = aerial.segment_inscattering(luts, camera.position, end, sun)
+    out = np.where(geometry[..., None], surface + unshadowed * scale, image)
+    if settings.enable_light_shafts and cascades is not None:
+        def is_lit(points):
+            return visibility(cascades, points, camera, settings.smooth_shadows,
+                              settings.best_cascade_search, settings.first_cascade_to_ray_march)
+        shafts = aerial.light_shafts(luts, camera.position, end, sun, is_lit, settings.num_integration_steps,
+                                     settings.single_scattering_mode, settings.multiple_scattering_mode)
+        out = out + (shafts - unshadowed) * scale
+    if settings.show_cascades and cascades is not None:
+        out = np.where(geometry[..., None], out * cascade_tint(cascades, end, camera, settings), out)
+    return out
+
+
+def cascade_tint(cascades: ShadowCascades, points, camera: Camera, settings: PassSettings):
+    """(..., 3) colour of the cascade each point falls in (white outside all cascades)."""
+    light_xy = np.asarray(points) @ cascades.frame[:2].T
+    view_depth = (np.asarray(points) - camera.position) @ camera.forward
+    index = select_cascade(cascades, light_xy, view_depth, settings.best_cascade_search)
+    colors = np.vstack([CASCADE_COLORS[:cascades.count], [(1.0, 1.0, 1.0)]])
+    return colors[index]
+
+
+PASS_CHANNELS = {"image": ("Combined", "RGB"), "position": ("Position", "XYZ"), "depth": ("Depth", "Z")}
+
+
+def load_render_passes(path) -> dict:
+    """Image (H, W, 3), position (H, W, 3) and depth (H, W) from a multilayer EXR saved by
+    Blender (channels "<layer>.Combined.R", "<layer>.Position.X", "<layer>.Depth.Z"), rows
+    bottom to top. ValueError naming the missing passes."""
+    import OpenEXR
+    path = Path(path)
+    try:
+        with OpenEXR.File(str(path), separate_channels=True) as exr:
+            channels = {name: np.asarray(c.pixels) for name, c in exr.channels().items()}
+    except Exception as exc:  # OpenEXR raises bare RuntimeErrors for unreadable files
+        raise ValueError(f"{path}: not a readable EXR file ({exc})") from exc
+    result, missing = {}, []
+    for key, (pass_name, components) in PASS_CHANNELS.items():
+        found = []
+        for component in components:
+            name = next((n for n in channels if n.endswith(f"{pass_name}.{component}")
+                         or n == f"{pass_name}.{component}"), None)
+            found.append(None if name is None else channels[name])
+        if any(c is None for c in found):
+            missing.append(pass_name)
+            continue
+        stacked = np.stack(found, axis=-1).astype(np.float64)[::-1]
+        result[key] = stacked[..., 0] if len(components) == 1 else stacked
+    if missing:
+        raise ValueError(f"{path}: missing render passes {', '.join(missing)}; enable them in the "
+                         "view layer's Passes panel and save as OpenEXR MultiLayer")
+    return result

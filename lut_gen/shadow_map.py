@@ -1,0 +1,240 @@
+"""Cascaded sun shadow maps: an orthographic depth render along the sun direction, pure numpy.
+
+The light frame has axes (right, up, sun): a world point P sits at light coordinates
+x = P.right, y = P.up and has "sun depth" d = P.sun, which grows toward the sun. A shadow map
+texel stores the largest sun depth of the geometry over its centre, so a point is lit when its
+own sun depth is not below the stored one (minus a bias of a few texels). Nothing is clipped in
+depth: every occluder between a point and the sun shares the point's (x, y).
+
+Cascades split the camera's view depth between ``near`` and ``far`` (the sample's partitioning
+factor blends uniform and logarithmic splits). Cascade i covers, in light space, the bounding
+rectangle of the view frustum from the camera to split i + 1, so the cascades are nested and
+each one contains every frustum point its depth range selects.
+
+Texel rows run bottom to top (row 0 at the smallest y), as Blender image pixels do.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+EMPTY_DEPTH = -1.0e9            # sun depth of texels no geometry covers: everything is lit there
+BIAS_TEXELS = 2.0               # depth bias, in texel sizes, against self-shadowing of surfaces
+PAD_TEXELS = 2.0                # margin around each cascade's footprint, so PCF taps stay inside
+MAX_CANDIDATES = 1 << 22        # texel tests per rasterisation batch (memory bound)
+CASCADE_COLORS = np.array([(1.0, 0.3, 0.3), (0.3, 1.0, 0.3), (0.3, 0.3, 1.0), (1.0, 1.0, 0.3),
+                           (1.0, 0.3, 1.0), (0.3, 1.0, 1.0), (1.0, 0.65, 0.2), (0.7, 0.7, 0.7)])
+
+
+def light_frame(sun_direction) -> np.ndarray:
+    """(3, 3) rows right, up, sun: an orthonormal frame whose third axis points at the sun."""
+    sun = np.asarray(sun_direction, dtype=np.float64)
+    norm = np.linalg.norm(sun)
+    if not np.isfinite(norm) or norm == 0.0:
+        raise ValueError(f"the sun direction must be a non-zero vector, got {tuple(sun)}")
+    sun = sun / norm
+    helper = np.array([0.0, 0.0, 1.0]) if abs(sun[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    right = np.cross(helper, sun)
+    right /= np.linalg.norm(right)
+    return np.stack([right, np.cross(sun, right), sun])
+
+
+def cascade_splits(near: float, far: float, count: int, partitioning_factor: float) -> np.ndarray:
+    """(count + 1,) view depths bounding the cascades: uniform (factor 0) to logarithmic (1)."""
+    if count < 1:
+        raise ValueError(f"the number of cascades must be at least 1, got {count}")
+    if not 0.0 < near < far:
+        raise ValueError(f"cascades need 0 < near < far, got near={near}, far={far}")
+    i = np.arange(count + 1) / count
+    uniform = near + (far - near) * i
+    logarithmic = near * (far / near) ** i
+    return uniform + (logarithmic - uniform) * float(np.clip(partitioning_factor, 0.0, 1.0))
+
+
+@dataclass
+class Camera:
+    """A perspective camera: position, rotation (columns: right, up, backward, as Blender's
+    matrix_world) and the tangents of the half field of view in x and y."""
+    position: np.ndarray
+    rotation: np.ndarray
+    tan_half_fov: tuple
+
+    @property
+    def forward(self) -> np.ndarray:
+        return -np.asarray(self.rotation)[:, 2]
+
+    def frustum_points(self, depth: float) -> np.ndarray:
+        """(5, 3): the camera and the four frustum corners at view depth ``depth``."""
+        tx, ty = self.tan_half_fov
+        local = np.array([(sx * tx * depth, sy * ty * depth, -depth) for sx in (-1, 1) for sy in (-1, 1)])
+        corners = local @ np.asarray(self.rotation, dtype=np.float64).T + self.position
+        return np.vstack([np.asarray(self.position, dtype=np.float64)[None], corners])
+
+    def view_directions(self, width: int, height: int) -> np.ndarray:
+        """(height, width, 3) unit world directions through pixel centres, rows bottom to top."""
+        tx, ty = self.tan_half_fov
+        x = ((np.arange(width) + 0.5) / width * 2.0 - 1.0) * tx
+        y = ((np.arange(height) + 0.5) / height * 2.0 - 1.0) * ty
+        local = np.stack(np.broadcast_arrays(x[None, :], y[:, None], -1.0), axis=-1)
+        world = local @ np.asarray(self.rotation, dtype=np.float64).T
+        return world / np.linalg.norm(world, axis=-1, keepdims=True)
+
+
+@dataclass
+class ShadowCascades:
+    """Cascaded shadow maps: ``frame`` from light_frame, per cascade the light-space centre
+    (N, 2), half extents (N, 2), the view depth where it ends (N,), and the maps (N, res, res)."""
+    frame: np.ndarray
+    centers: np.ndarray
+    halves: np.ndarray
+    far_depths: np.ndarray
+    depths: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return len(self.centers)
+
+    @property
+    def resolution(self) -> int:
+        return self.depths.shape[-1]
+
+    def texel_sizes(self) -> np.ndarray:
+        """(N, 2) texel size in metres along x and y."""
+        return 2.0 * self.halves / self.resolution
+
+    def biases(self) -> np.ndarray:
+        """(N,) depth bias in metres."""
+        return BIAS_TEXELS * self.texel_sizes().max(axis=-1)
+
+
+def cascade_footprints(camera: Camera, frame: np.ndarray, splits: np.ndarray, resolution: int):
+    """Light-space centres and half extents (N, 2) of the frustum from the camera to each far
+    split, padded by PAD_TEXELS texels."""
+    centers, halves = [], []
+    for depth in splits[1:]:
+        xy = camera.frustum_points(depth) @ frame[:2].T
+        low, high = xy.min(axis=0), xy.max(axis=0)
+        half = np.maximum((high - low) / 2.0, 1e-3)
+        half = half * resolution / max(resolution - 2.0 * PAD_TEXELS, 1.0)
+        centers.append((low + high) / 2.0)
+        halves.append(half)
+    return np.array(centers), np.array(halves)
+
+
+def rasterize_max_depth(triangles_light: np.ndarray, center, half, resolution: int) -> np.ndarray:
+    """(res, res) float32: the largest sun depth of ``triangles_light`` (M, 3, 3: x, y, d per
+    vertex) over each texel centre of the rectangle center +- half; EMPTY_DEPTH where none."""
+    if resolution < 1:
+        raise ValueError(f"the shadow map resolution must be at least 1 texel, got {resolution}")
+    depth = np.full(resolution * resolution, EMPTY_DEPTH, dtype=np.float64)
+    tri = np.asarray(triangles_light, dtype=np.float64)
+    if tri.size == 0:
+        return depth.reshape(resolution, resolution).astype(np.float32)
+    texel = 2.0 * np.asarray(half, dtype=np.float64) / resolution
+    origin = np.asarray(center, dtype=np.float64) - half
+    px = (tri[..., 0] - origin[0]) / texel[0] - 0.5      # texel centres at integer coordinates
+    py = (tri[..., 1] - origin[1]) / texel[1] - 0.5
+    lo_x = np.maximum(np.ceil(px.min(axis=1)), 0).astype(np.int64)
+    hi_x = np.minimum(np.floor(px.max(axis=1)), resolution - 1).astype(np.int64)
+    lo_y = np.maximum(np.ceil(py.min(axis=1)), 0).astype(np.int64)
+    hi_y = np.minimum(np.floor(py.max(axis=1)), resolution - 1).astype(np.int64)
+    area = ((px[:, 1] - px[:, 0]) * (py[:, 2] - py[:, 0]) - (px[:, 2] - px[:, 0]) * (py[:, 1] - py[:, 0]))
+    keep = (hi_x >= lo_x) & (hi_y >= lo_y) & (np.abs(area) > 1e-12)
+    if not keep.any():
+        return depth.reshape(resolution, resolution).astype(np.float32)
+    px, py, d, area = px[keep], py[keep], tri[keep][..., 2], area[keep]
+    lo_x, hi_x, lo_y, hi_y = lo_x[keep], hi_x[keep], lo_y[keep], hi_y[keep]
+    width, height = hi_x - lo_x + 1, hi_y - lo_y + 1
+    # Batches of triangles with bounding boxes of similar size (power-of-two classes), so the
+    # candidate grid of a batch wastes at most half of each axis.
+    size_class = np.stack([np.ceil(np.log2(width)), np.ceil(np.log2(height))], axis=-1).astype(np.int64)
+    classes, which = np.unique(size_class, axis=0, return_inverse=True)
+    for index, (cx, cy) in enumerate(classes):
+        members = np.flatnonzero(which.ravel() == index)
+        grid_w, grid_h = 1 << int(cx), 1 << int(cy)
+        per_batch = max(MAX_CANDIDATES // (grid_w * grid_h), 1)
+        for start in range(0, len(members), per_batch):
+            batch = members[start:start + per_batch]
+            _splat(depth, resolution, px[batch], py[batch], d[batch], area[batch],
+                   lo_x[batch], lo_y[batch], width[batch], height[batch], grid_w, grid_h)
+    return depth.reshape(resolution, resolution).astype(np.float32)
+
+
+def _splat(depth, resolution, px, py, d, area, lo_x, lo_y, width, height, grid_w, grid_h):
+    """Max-scatter the sun depth of a batch of triangles over the texel centres they cover."""
+    ox, oy = np.meshgrid(np.arange(grid_w), np.arange(grid_h), indexing="xy")
+    ox, oy = ox.ravel()[None], oy.ravel()[None]
+    tx, ty = lo_x[:, None] + ox, lo_y[:, None] + oy
+    in_box = (ox < width[:, None]) & (oy < height[:, None])
+
+    def edge(i, j):        # twice the signed area of (vertex i, vertex j, texel)
+        return ((px[:, j, None] - px[:, i, None]) * (ty - py[:, i, None])
+                - (py[:, j, None] - py[:, i, None]) * (tx - px[:, i, None]))
+    w0, w1, w2 = edge(1, 2) / area[:, None], edge(2, 0) / area[:, None], edge(0, 1) / area[:, None]
+    eps = -1e-7
+    inside = in_box & (w0 >= eps) & (w1 >= eps) & (w2 >= eps)
+    value = w0 * d[:, 0, None] + w1 * d[:, 1, None] + w2 * d[:, 2, None]
+    flat = (ty * resolution + tx)[inside]
+    np.maximum.at(depth, flat, value[inside])
+
+
+def render_cascades(triangles_world, camera: Camera, sun_direction, resolution: int, count: int,
+                    partitioning_factor: float, near: float, far: float) -> ShadowCascades:
+    """Shadow maps of world-space triangles (M, 3, 3) for ``camera`` and the sun."""
+    if resolution < 16:
+        raise ValueError(f"the shadow map resolution must be at least 16 texels, got {resolution}")
+    frame = light_frame(sun_direction)
+    splits = cascade_splits(near, far, count, partitioning_factor)
+    centers, halves = cascade_footprints(camera, frame, splits, resolution)
+    triangles_light = np.asarray(triangles_world, dtype=np.float64).reshape(-1, 3, 3) @ frame.T
+    depths = np.stack([rasterize_max_depth(_overlapping(triangles_light, c, h), c, h, resolution)
+                       for c, h in zip(centers, halves)])
+    return ShadowCascades(frame, centers, halves, splits[1:], depths)
+
+
+def _overlapping(triangles_light, center, half):
+    """The triangles whose light-space bounding box meets the rectangle center +- half."""
+    low, high = triangles_light[..., :2].min(axis=1), triangles_light[..., :2].max(axis=1)
+    keep = np.all((high >= center - half) & (low <= center + half), axis=-1)
+    return triangles_light[keep]
+
+
+def select_cascade(cascades: ShadowCascades, light_xy, view_depth, best_search: bool):
+    """Cascade index per point; ``count`` where no cascade applies (the point is lit)."""
+    inside = np.all(np.abs(light_xy[..., None, :] - cascades.centers) <= cascades.halves, axis=-1)
+    if best_search:
+        # Nested cascades: the smallest one a point projects into is the number it misses.
+        index = cascades.count - inside.sum(axis=-1)
+    else:
+        index = np.sum(np.asarray(view_depth)[..., None] > cascades.far_depths, axis=-1)
+        clamped = np.minimum(index, cascades.count - 1)
+        index = np.where(np.take_along_axis(inside, clamped[..., None], axis=-1)[..., 0], index, cascades.count)
+    return index
+
+
+PCF_OFFSETS = np.array([(0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)])
+
+
+def visibility(cascades: ShadowCascades, points, camera: Camera, smooth: bool = False,
+               best_search: bool = True, first_cascade: int = 0) -> np.ndarray:
+    """Fraction of the sun visible from world points (...): 1 lit, 0 in shadow; the average of
+    5 PCF taps when ``smooth``. Points in cascades below ``first_cascade`` are not tested (lit),
+    as the sample's "First cascade to ray march"."""
+    points = np.asarray(points, dtype=np.float64)
+    light = points @ cascades.frame.T
+    view_depth = (points - camera.position) @ camera.forward
+    index = select_cascade(cascades, light[..., :2], view_depth, best_search)
+    tested = (index < cascades.count) & (index >= first_cascade)
+    safe = np.minimum(index, cascades.count - 1)
+    origin = cascades.centers[safe] - cascades.halves[safe]
+    texel = cascades.texel_sizes()[safe]
+    column = np.floor((light[..., 0] - origin[..., 0]) / texel[..., 0]).astype(np.int64)
+    row = np.floor((light[..., 1] - origin[..., 1]) / texel[..., 1]).astype(np.int64)
+    res = cascades.resolution
+    offsets = PCF_OFFSETS if smooth else PCF_OFFSETS[:1]
+    lit = np.zeros(points.shape[:-1])
+    for dx, dy in offsets:
+        stored = cascades.depths[safe, np.clip(row + dy, 0, res - 1), np.clip(column + dx, 0, res - 1)]
+        lit += light[..., 2] >= stored - cascades.biases()[safe]
+    return np.where(tested, lit / len(offsets), 1.0)
