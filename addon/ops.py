@@ -12,7 +12,7 @@ from bpy.props import BoolProperty, EnumProperty, StringProperty
 
 from .. import lut_gen
 from . import props
-from .scene import animation, luts, wiring
+from .scene import adaptation, animation, compositor, luts, shadow_maps, wiring
 from .scene import sun as sun_lamps
 
 RESOLUTION_ITEMS = [("default", "Default", "The sample's 32 x 128 x 64 x 16 tables (~10-20 s)"),
@@ -206,6 +206,7 @@ def _update_scene(scene):
         return
     try:
         wiring.match_engine(scene)
+        wiring.match_light_shaft_layout(scene)
         if scene.ols.animate_sun:
             elevation, azimuth = animation.sun_angles_for_frame(scene.frame_current, scene.frame_start,
                                                                 scene.frame_end)
@@ -223,6 +224,20 @@ def on_frame_change(scene, depsgraph=None):
 @persistent
 def on_depsgraph_update(scene, depsgraph=None):
     _update_scene(scene)
+
+
+@persistent
+def on_render_pre(scene, *_args):
+    """Shadow maps for the frame about to render. Where they cannot be made, the light-shaft
+    pass is switched off for this render and the reason printed (the render still completes)."""
+    if not scene.get(wiring.WIRED_KEY):
+        return
+    try:
+        wiring.match_light_shaft_layout(scene)
+        compositor.update_light_shafts(scene, bpy.context.evaluated_depsgraph_get())
+    except (shadow_maps.ShadowMapError, ValueError) as exc:
+        compositor.disable_light_shafts(scene)
+        print(f"Outdoor Light Scattering: light shafts are off for this render: {exc}")
 
 
 @persistent
@@ -261,9 +276,10 @@ def invoke_bake_in_window(resolution="default"):
 
 HANDLERS = ((bpy.app.handlers.frame_change_pre, on_frame_change),
             (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
+            (bpy.app.handlers.render_pre, on_render_pre),
             (bpy.app.handlers.undo_post, on_data_replaced),
             (bpy.app.handlers.redo_post, on_data_replaced),
-            (bpy.app.handlers.load_post, on_file_loaded))
+            (bpy.app.handlers.load_post, on_file_loaded)) + adaptation.HANDLERS
 
 
 def register_handlers():

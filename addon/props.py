@@ -79,6 +79,7 @@ _LIVE_NOW = {
     "luminance_saturation",
     "auto_exposure",
     "tone_mapping_operator",
+    "light_adaptation",
     "enable_light_scattering",
     "lighting_only",
 }

@@ -219,13 +219,15 @@ PCF_OFFSETS = np.array([(0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)])
 def visibility(cascades: ShadowCascades, points, camera: Camera, smooth: bool = False,
                best_search: bool = True, first_cascade: int = 0) -> np.ndarray:
     """Fraction of the sun visible from world points (...): 1 lit, 0 in shadow; the average of
-    5 PCF taps when ``smooth``. Points in cascades below ``first_cascade`` are not tested (lit),
-    as the sample's "First cascade to ray march"."""
+    5 PCF taps when ``smooth``. Points outside every cascade are lit. As the sample's "First
+    cascade to ray march", cascades below ``first_cascade`` are skipped: their points are
+    tested in that (larger, nested) cascade instead."""
     points = np.asarray(points, dtype=np.float64)
     light = points @ cascades.frame.T
     view_depth = (points - camera.position) @ camera.forward
     index = select_cascade(cascades, light[..., :2], view_depth, best_search)
-    tested = (index < cascades.count) & (index >= first_cascade)
+    index = np.maximum(index, min(first_cascade, cascades.count - 1))
+    tested = index < cascades.count
     safe = np.minimum(index, cascades.count - 1)
     origin = cascades.centers[safe] - cascades.halves[safe]
     texel = cascades.texel_sizes()[safe]
@@ -238,3 +240,40 @@ def visibility(cascades: ShadowCascades, points, camera: Camera, smooth: bool = 
         stored = cascades.depths[safe, np.clip(row + dy, 0, res - 1), np.clip(column + dx, 0, res - 1)]
         lit += light[..., 2] >= stored - cascades.biases()[safe]
     return np.where(tested, lit / len(offsets), 1.0)
+
+
+# -- packing for the compositor -----------------------------------------------------------------
+# Atlas: cascade i sits in block i // 3 (columns [block * res, (block + 1) * res)), in colour
+# channel i % 3 (R, G, B), rows bottom to top. Parameter image: one column per cascade plus a
+# last one for points outside every cascade; rows as PARAM_ROWS.
+CASCADES_PER_BLOCK = 3
+PARAM_ROWS = ("center_far", "half_bias", "channel_mask", "block", "color")
+
+
+def pack_atlas(cascades: ShadowCascades) -> np.ndarray:
+    """(res, blocks * res, 4) float32 RGBA atlas of the cascades' depth maps."""
+    res, count = cascades.resolution, cascades.count
+    blocks = -(-count // CASCADES_PER_BLOCK)
+    atlas = np.full((res, blocks * res, 4), EMPTY_DEPTH, dtype=np.float32)
+    atlas[..., 3] = 1.0
+    for i, depth in enumerate(cascades.depths):
+        block, channel = divmod(i, CASCADES_PER_BLOCK)
+        atlas[:, block * res:(block + 1) * res, channel] = depth
+    return atlas
+
+
+def pack_parameters(cascades: ShadowCascades) -> np.ndarray:
+    """(len(PARAM_ROWS), count + 1, 4) float32: per cascade its light-space rectangle, far view
+    depth, depth bias, atlas channel and block, and its Show Cascades colour."""
+    count = cascades.count
+    table = np.zeros((len(PARAM_ROWS), count + 1, 4), dtype=np.float32)
+    table[..., 3] = 1.0
+    table[0, :count, :2], table[0, :count, 2] = cascades.centers, cascades.far_depths
+    table[1, :count, :2], table[1, :count, 2] = cascades.halves, cascades.biases()
+    for i in range(count):
+        block, channel = divmod(i, CASCADES_PER_BLOCK)
+        table[2, i, channel] = 1.0
+        table[3, i, 0] = block
+    table[4, :count, :3] = CASCADE_COLORS[:count]
+    table[4, count, :3] = 1.0
+    return table

@@ -94,7 +94,7 @@ def test_every_control_is_a_property(addon_package):
         "scattering_scale", "use_custom_scattering_coeffs", "rayleigh_color", "mie_color",
         "aerosol_density", "aerosol_absorption", "animate_sun",
         "middle_gray", "white_point", "luminance_saturation", "auto_exposure", "tone_mapping_operator",
-        "enable_light_scattering", "lighting_only"}
+        "light_adaptation", "enable_light_scattering", "lighting_only"}
     for name in names:
         description = rna[name].description
         assert description, name

@@ -125,9 +125,13 @@ def test_first_cascade_skips_the_nearest_cascades():
     sun = np.array([0.0, 0.0, 1.0])
     camera = sm.Camera(np.array([0.0, -5.0, 5.0]), camera_looking_along_y().rotation, (0.6, 0.35))
     cascades = sm.render_cascades(occluder_scene(sun), camera, sun, 128, 4, 1.0, 1.0, 1000.0)
-    point = np.array([[0.0, 0.0, 1.0]])         # 5 m in front: the first cascades
-    assert sm.visibility(cascades, point, camera, first_cascade=0)[0] == 0.0
-    assert sm.visibility(cascades, point, camera, first_cascade=3)[0] == 1.0
+    edge = np.array([[9.9, 0.0, 1.0], [10.3, 0.0, 1.0]])     # just inside, just outside the roof's shadow
+    texel = cascades.texel_sizes()[:, 0]
+    assert texel[0] < 0.1 < texel[3]
+    assert sm.visibility(cascades, edge, camera, first_cascade=0).tolist() == [0.0, 1.0]
+    # Skipped cascades are tested in the first marched one: coarse texels blur the edge.
+    coarse = sm.visibility(cascades, edge, camera, first_cascade=3)
+    assert coarse.tolist() != [0.0, 1.0]
 
 
 def test_render_cascades_rejects_bad_input():

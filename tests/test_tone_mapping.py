@@ -102,7 +102,9 @@ def test_setup_inserts_tone_mapping_and_unwire_restores_the_users_tree(addon_pac
     assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
     node = tree.nodes["OLS Tone Mapping"]
     aerial = tree.nodes["OLS Aerial Perspective"]
-    assert output.inputs[0].links[0].from_node == node and node.inputs["Image"].links[0].from_node == aerial
+    shafts = tree.nodes["OLS Light Shafts"]
+    assert output.inputs[0].links[0].from_node == node and node.inputs["Image"].links[0].from_node == shafts
+    assert shafts.inputs["Image"].links[0].from_node == aerial
     assert aerial.inputs["Image"].links[0].from_node == blur
     assert scene.view_settings.view_transform == "Standard"
     scene.ols.tone_mapping_operator = "REINHARD"

@@ -4,6 +4,11 @@ Twin: addon/post/tone_mapping.py (same names, same constants). The operator is a
 index in OPERATORS) so a driver from scene.ols switches it; all seven are evaluated and the
 chosen one is kept. Auto exposure takes the log-average luminance of the frame from the Levels
 node's mean over log luminance; otherwise "Average Luminance" is used (the sample's 0.1).
+
+Light adaptation: the operators use Previous + (measured - Previous) * Adaptation Weight (weight 1,
+the default, is no adaptation). A compositor has no memory across frames, so Python carries it
+(addon/scene/adaptation.py): the output "Adapted Luminance" is a 1 x 1 image of the luminance this
+frame used, which a File Output node writes for the render handlers to read back.
 """
 from __future__ import annotations
 
@@ -21,7 +26,10 @@ INPUTS = [
     ("Luminance Saturation", "NodeSocketFloat", 1.0),
     ("Auto Exposure", "NodeSocketFloat", 1.0),
     ("Average Luminance", "NodeSocketFloat", twin.FIXED_AVERAGE_LUMINANCE),
+    ("Previous Luminance", "NodeSocketFloat", twin.FIXED_AVERAGE_LUMINANCE),
+    ("Adaptation Weight", "NodeSocketFloat", 1.0),
 ]
+OUTPUTS = [("Image", "NodeSocketColor", None), ("Adapted Luminance", "NodeSocketColor", None)]
 
 
 def _uncharted2(g, x):
@@ -31,9 +39,23 @@ def _uncharted2(g, x):
     return g.sub(g.div(numerator, denominator), e / f)
 
 
+def _one_pixel_image(g, image, value):
+    """A 1 x 1 image holding ``value``: a File Output node skips single values, and one pixel
+    keeps the file tiny. The crop of the frame only supplies the image's size; min(max(x, 0), 0)
+    zeroes its pixel even when it is inf or NaN."""
+    crop = g.node("CompositorNodeCrop")
+    g.links.new(image, crop.inputs["Image"])
+    for name, size in (("X", 0), ("Y", 0), ("Width", 1), ("Height", 1)):
+        crop.inputs[name].default_value = size
+    red = g.node("CompositorNodeSeparateColor")
+    g.links.new(crop.outputs["Image"], red.inputs["Image"])
+    zero = g.math("MINIMUM", g.math("MAXIMUM", red.outputs["Red"], 0.0), 0.0)
+    return g.add(zero, value)
+
+
 def build_tone_mapping_group():
     tree = new_group(GROUP_NAME, "CompositorNodeTree")
-    g, gin, gout = group_io(tree, INPUTS, [("Image", "NodeSocketColor", None)])
+    g, gin, gout = group_io(tree, INPUTS, OUTPUTS)
     split = g.node("CompositorNodeSeparateColor")
     g.links.new(gin.outputs["Image"], split.inputs["Image"])
     colour = [g.math("MAXIMUM", split.outputs[name], 0.0) for name in ("Red", "Green", "Blue")]
@@ -49,7 +71,9 @@ def build_tone_mapping_group():
     levels = g.node("CompositorNodeLevels")
     g.links.new(log_image.outputs["Image"], levels.inputs["Image"])
     frame_average = g.math("EXPONENT", levels.outputs["Mean"])
-    average = g.lerp(gin.outputs["Average Luminance"], frame_average, gin.outputs["Auto Exposure"])
+    measured = g.lerp(gin.outputs["Average Luminance"], frame_average, gin.outputs["Auto Exposure"])
+    average = g.lerp(gin.outputs["Previous Luminance"], measured, gin.outputs["Adaptation Weight"])
+    g.links.new(_one_pixel_image(g, gin.outputs["Image"], average), gout.inputs["Adapted Luminance"])
 
     scale = g.div(gin.outputs["Middle Gray"], average)
     scaled_lum = g.mul(lum, scale)

@@ -31,18 +31,34 @@ def log_average_luminance(rgb) -> float:
     return float(np.exp(np.mean(np.log(lum))))
 
 
+def adaptation_weight(elapsed_s: float, rate: float = ADAPTATION_RATE) -> float:
+    """How far the eye adapts toward the new luminance in ``elapsed_s``: 1 - exp(-rate dt)."""
+    return 1.0 - math.exp(-rate * elapsed_s)
+
+
+def adapt(previous: float, current: float, weight: float) -> float:
+    """previous + (current - previous) weight: the luminance the operators use (weight 1: current)."""
+    return previous + (current - previous) * weight
+
+
 def adapted_luminance(previous: float, current: float, elapsed_s: float, rate: float = ADAPTATION_RATE) -> float:
     """Light adaptation between frames: old + (new - old)(1 - exp(-rate dt))."""
-    return previous + (current - previous) * (1.0 - math.exp(-rate * elapsed_s))
+    return adapt(previous, current, adaptation_weight(elapsed_s, rate))
 
 
 def tone_map(rgb, operator="UNCHARTED2", middle_gray=0.18, white_point=3.0, luminance_saturation=1.0,
-             average_luminance=None):
-    """Linear display colour (before the sRGB transfer) of linear HDR ``rgb`` (..., 3)."""
+             average_luminance=None, previous_luminance=None, adaptation_weight=1.0):
+    """Linear display colour (before the sRGB transfer) of linear HDR ``rgb`` (..., 3).
+
+    ``average_luminance``: the measured one (auto exposure's log average), else the sample's fixed
+    0.1. Light adaptation: with ``previous_luminance`` (the previous frame's adapted luminance) the
+    operators use ``adapt(previous, measured, adaptation_weight)`` instead."""
     if operator not in OPERATORS:
         raise ValueError(f"operator must be one of {', '.join(OPERATORS)}, got {operator!r}")
     colour = np.maximum(np.asarray(rgb, dtype=np.float64)[..., :3], 0.0)
     average = FIXED_AVERAGE_LUMINANCE if average_luminance is None else average_luminance
+    if previous_luminance is not None:
+        average = adapt(previous_luminance, average, adaptation_weight)
     scale = middle_gray / average
     lum = np.maximum(colour @ RGB_TO_LUMINANCE, MIN_LUMINANCE)[..., None]
     scaled_lum = lum * scale

@@ -9,12 +9,14 @@ import numpy as np
 
 from .. import nodes
 from ..post import tone_mapping
-from . import sun as sun_lamps
+from . import adaptation
+from . import shadow_maps, sun as sun_lamps
 
 TREE_NAME = "OLS Compositing"
 NODE_NAME = "OLS Tone Mapping"
 AERIAL_NODE = "OLS Aerial Perspective"
 LAYERS_NODE = "OLS Render Layers"
+SHAFTS_NODE = "OLS Light Shafts"
 PREVIOUS_PASSES = "ols_previous_passes"
 CREATED_TREE = "ols_created_compositor"
 PREVIOUS_VIEW = "ols_previous_view_transform"
@@ -67,6 +69,7 @@ def wire_compositor(scene):
         tree.links.new(source.outputs[index], node.inputs["Image"])
         tree.links.new(node.outputs["Image"], output.inputs[0])
     node.node_tree = group
+    adaptation.ensure_output_node(tree, node)     # light adaptation reads each frame's luminance back
     _insert_aerial(scene, tree, node)
     sync_settings(scene)
     if scene.view_settings.view_transform != "Standard":
@@ -98,10 +101,37 @@ def _insert_aerial(scene, tree, tone_node):
     layer.use_pass_position = layer.use_pass_z = True
     tree.links.new(layers.outputs["Position"], aerial.inputs["Position"])
     tree.links.new(layers.outputs["Depth"], aerial.inputs["Depth"])
+    link_light_shafts(scene)
+
+
+def link_light_shafts(scene):
+    """Put the light-shaft group between the aerial perspective and the tone mapping (again
+    after a rebuild changed its sockets)."""
+    tree = scene.compositing_node_group
+    aerial, tone = tree.nodes.get(AERIAL_NODE), tree.nodes.get(NODE_NAME)
+    layers = tree.nodes.get(LAYERS_NODE)
+    group = bpy.data.node_groups.get(nodes.LIGHT_SHAFTS_GROUP)
+    if aerial is None or tone is None or layers is None or group is None:
+        return
+    shafts = tree.nodes.get(SHAFTS_NODE)
+    if shafts is None:
+        shafts = tree.nodes.new("CompositorNodeGroup")
+        shafts.name = SHAFTS_NODE
+        shafts.location = (tone.location.x - 100, tone.location.y - 200)
+    shafts.node_tree = group
+    tree.links.new(aerial.outputs["Image"], shafts.inputs["Image"])
+    tree.links.new(shafts.outputs["Image"], tone.inputs["Image"])
+    tree.links.new(layers.outputs["Position"], shafts.inputs["Position"])
+    tree.links.new(layers.outputs["Depth"], shafts.inputs["Depth"])
 
 
 def unwire_compositor(scene):
     tree = scene.compositing_node_group
+    if tree is not None and tree.nodes.get(SHAFTS_NODE) is not None:
+        tree.nodes.remove(tree.nodes[SHAFTS_NODE])
+        aerial, tone = tree.nodes.get(AERIAL_NODE), tree.nodes.get(NODE_NAME)
+        if aerial is not None and tone is not None:
+            tree.links.new(aerial.outputs["Image"], tone.inputs["Image"])
     if tree is not None and not scene.get(CREATED_TREE):
         aerial = tree.nodes.get(AERIAL_NODE)
         if aerial is not None:
@@ -116,7 +146,9 @@ def unwire_compositor(scene):
         layer = scene.view_layers[0]
         layer.use_pass_position, layer.use_pass_z = (bool(v) for v in scene[PREVIOUS_PASSES])
         del scene[PREVIOUS_PASSES]
+    adaptation.forget(scene)
     if tree is not None:
+        adaptation.remove_output_node(tree)
         node = tree.nodes.get(NODE_NAME)
         if scene.get(CREATED_TREE):
             scene.compositing_node_group = None
@@ -160,6 +192,28 @@ def sync_settings(scene):
         values["Sun Direction"] = tuple(sun_lamps.direction_to_sun(sun))
         values["Sun Strength"] = sun.data.energy
     _set_inputs(aerial, values)
+    shafts = tree.nodes.get(SHAFTS_NODE)
+    if shafts is not None and shafts.node_tree is not None:
+        active = settings.enable_light_scattering and settings.enable_light_shafts
+        if shafts.mute == active:       # a muted group passes its image through and costs nothing
+            shafts.mute = not active
+        _set_inputs(shafts, {"Enable": float(settings.enable_light_scattering),
+                             "Scattering Scale": settings.scattering_scale,
+                             "First Cascade": float(settings.first_cascade_to_ray_march),
+                             "Show Cascades": float(settings.show_cascades),
+                             **{k: v for k, v in values.items() if k == "Sun Strength"}})
+
+
+def update_light_shafts(scene, depsgraph):
+    """Render the shadow maps for the current frame and feed camera and cascades to the light
+    shaft group (before each render: sun, camera and geometry may all have moved)."""
+    tree = scene.compositing_node_group
+    shafts = tree.nodes.get(SHAFTS_NODE) if tree is not None else None
+    if shafts is None or shafts.node_tree is None or shafts.mute:
+        return
+    cascades = shadow_maps.render(scene, depsgraph)
+    shadow_maps.write_images(cascades)
+    _set_inputs(shafts, shadow_maps.group_inputs(cascades, shadow_maps.camera_model(scene)))
 
 
 def _set_inputs(node, values: dict):
@@ -169,3 +223,11 @@ def _set_inputs(node, values: dict):
         current = node.inputs[socket].default_value     # stored as float32: compare with a tolerance
         if not np.allclose(np.atleast_1d(current), np.atleast_1d(value), rtol=1e-6, atol=1e-9):
             node.inputs[socket].default_value = value
+
+
+def disable_light_shafts(scene):
+    """Mute the light-shaft node (the next settings sync turns it back on)."""
+    tree = scene.compositing_node_group
+    shafts = tree.nodes.get(SHAFTS_NODE) if tree is not None else None
+    if shafts is not None:
+        shafts.mute = True

@@ -12,7 +12,7 @@ import bpy
 
 from ... import lut_gen
 from .. import nodes
-from . import compositor, drivers, luts, skylight, sun as sun_lamps
+from . import compositor, drivers, luts, shadow_maps, skylight, sun as sun_lamps
 
 WORLD_NAME = "OLS World"
 TERRAIN_MATERIAL = "OLS Terrain"
@@ -44,9 +44,31 @@ def build_groups(bake_dir, engine="CYCLES"):
     nodes.build_lookup_group(images["multiple"], dims, params, nodes.lookup.filtering_for_engine(engine))
     nodes.build_sky_group(images["optical_depth"], params, skylight.ensure_image())
     nodes.build_terrain_group(images["optical_depth"], images["ambient"], params)
-    nodes.build_lookup_group(images["multiple"], dims, params, compositor=True)
+    for table in nodes.COMPOSITOR_TABLES:
+        nodes.build_lookup_group(images[table], dims, params, compositor=True, name=nodes.lookup_group_name(table))
     nodes.build_aerial_group(images["optical_depth"], params)
     return images, params
+
+
+def build_light_shafts(scene, optical_image, params):
+    """(Re)build the light-shaft groups for the scene's structural settings (ShaftLayout)."""
+    settings = scene.ols
+    atlas, table = shadow_maps.ensure_images(int(settings.shadow_map_resolution), settings.num_cascades)
+    nodes.build_light_shaft_groups(optical_image, atlas, table, params, nodes.ShaftLayout.from_settings(settings))
+
+
+def match_light_shaft_layout(scene) -> bool:
+    """Rebuild the light-shaft groups when steps, modes, cascades, PCF, cascade search or the
+    shadow-map resolution changed; True when rebuilt."""
+    group = bpy.data.node_groups.get(nodes.LIGHT_SHAFTS_GROUP)
+    info = bake_info(scene)
+    if group is None or info is None:
+        return False
+    if group.get("ols_layout") == nodes.ShaftLayout.from_settings(scene.ols).as_key():
+        return False
+    build_light_shafts(scene, bpy.data.images[luts.image_name("optical_depth", info.key)], info.params)
+    compositor.link_light_shafts(scene)
+    return True
 
 
 def match_engine(scene) -> bool:
@@ -139,6 +161,7 @@ def wire_scene(scene, bake_dir, terrain_objects=(), sun=None, resolution="defaul
     wire_world(scene, sun, light_scene=0.0 if terrain_objects else 1.0)
     for obj in terrain_objects:
         wire_terrain(obj, sun)
+    build_light_shafts(scene, images["optical_depth"], params)
     compositor.wire_compositor(scene)
     scene[WIRED_KEY] = lut_gen.exr_io.read_key(bake_dir)
     scene[RESOLUTION_KEY] = resolution

@@ -1,0 +1,285 @@
+""""OLS Light Shafts": the sun's shadows in the air, as a compositor group placed after
+"OLS Aerial Perspective". Twin: lut_gen.scattering_pass (with lut_gen.aerial.light_shafts).
+
+Each pixel's ray runs from the camera to its surface point, or for the sky to the end of the
+last shadow cascade. The group marches ``steps`` samples through the cascaded shadow maps
+("OLS Shadow Test", one per step), finds the lit length and the distance to the first lit
+sample, applies the sample's single- and multiple-scattering modes and replaces the
+unshadowed in-scattering the aerial pass (or the sky) already holds:
+
+    out = image + (shadowed - unshadowed) x sun strength x scattering scale
+
+The march length, the modes, the number of cascades, PCF and the cascade search change the
+structure of the group: ``ShaftLayout`` names them and a change rebuilds the groups. Everything
+else (camera, sun, cascade rectangles, first cascade, show cascades) arrives as inputs.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ...lut_gen import shadow_map
+from ...lut_gen.atmosphere import RAYLEIGH_PHASE_NORM
+from .builder import group_io, new_group
+from .inscattering import section_inscattering
+from .optical import point_frame, segment_transmittance, transmittance_to_top
+
+GROUP_NAME = "OLS Light Shafts"
+SHADOW_TEST_GROUP = "OLS Shadow Test"
+INTEGRATION_GROUP = "OLS Integration Step"
+SKY_DEPTH = 1e9
+NEVER = 1e20                 # "no lit sample" in the first-lit minimum
+MIN_FORWARD_COSINE = 1e-3
+
+
+@dataclass(frozen=True)
+class ShaftLayout:
+    """The settings that shape the node graph (scene.ols names)."""
+    steps: int = 30
+    cascades: int = 6
+    single_mode: str = "LUT"
+    multiple_mode: str = "UNOCCLUDED"
+    smooth: bool = True
+    best_search: bool = True
+    resolution: int = 1024
+
+    @classmethod
+    def from_settings(cls, settings):
+        return cls(settings.num_integration_steps, settings.num_cascades, settings.single_scattering_mode,
+                   settings.multiple_scattering_mode, settings.smooth_shadows, settings.best_cascade_search,
+                   int(settings.shadow_map_resolution))
+
+    def as_key(self) -> str:
+        return repr(tuple(self.__dict__.values()))
+
+
+def cascade_inputs(count):
+    return [socket for i in range(count) for socket in
+            ((f"Cascade {i} Center", "NodeSocketVector", (0.0, 0.0, 1.0)),
+             (f"Cascade {i} Half", "NodeSocketVector", (1.0, 1.0, 0.0)))]
+
+
+SHARED_INPUTS = [
+    ("Camera Position", "NodeSocketVector", (0.0, 0.0, 2.0)),
+    ("Camera Forward", "NodeSocketVector", (0.0, 1.0, 0.0)),
+    ("Light Right", "NodeSocketVector", (1.0, 0.0, 0.0)),
+    ("Light Up", "NodeSocketVector", (0.0, 1.0, 0.0)),
+    ("Sun Direction", "NodeSocketVector", (0.0, 0.0, 1.0)),
+    ("First Cascade", "NodeSocketFloat", 0.0),
+]
+
+
+def build_shadow_test_group(layout: ShaftLayout, atlas_image, parameter_image):
+    """"OLS Shadow Test": the sun visibility of a world point (1 lit, 0 shadowed, PCF fractions)
+    and its cascade. Twin: lut_gen.shadow_map.visibility and select_cascade."""
+    tree = new_group(SHADOW_TEST_GROUP, "CompositorNodeTree")
+    inputs = [("Point", "NodeSocketVector", (0.0, 0.0, 0.0))] + SHARED_INPUTS + cascade_inputs(layout.cascades)
+    g, gin, gout = group_io(tree, inputs, [("Lit", "NodeSocketFloat", None), ("Cascade", "NodeSocketFloat", None)])
+    n = layout.cascades
+    point = gin.outputs["Point"]
+    x, y = (g.vmath("DOT_PRODUCT", point, gin.outputs[axis]) for axis in ("Light Right", "Light Up"))
+    sun_depth = g.vmath("DOT_PRODUCT", point, gin.outputs["Sun Direction"])
+    light_xy = g.combine(x, y, 0.0)
+
+    def inside(center, half):
+        """1 where the point projects into the rectangle center +- half (x, y components)."""
+        offset = g.vmath("ABSOLUTE", g.vmath("SUBTRACT", light_xy, g.combine(*g.separate(center)[:2], 0.0)))
+        hx, hy, _ = g.separate(half)
+        ox, oy, _ = g.separate(offset)
+        return g.mul(g.math("LESS_THAN", ox, g.add(hx, 1e-6)), g.math("LESS_THAN", oy, g.add(hy, 1e-6)))
+
+    def parameter(row, index):
+        """Row ``row`` of the cascade parameter image at column ``index``."""
+        u = g.div(g.add(index, 0.5), n + 1)
+        v = (shadow_map.PARAM_ROWS.index(row) + 0.5) / len(shadow_map.PARAM_ROWS)
+        return g.image(parameter_image, g.combine(u, v, 1.0), interpolation="Closest")
+
+    if layout.best_search:      # nested cascades: the smallest one containing the point
+        index = float(n)
+        for i in range(n):
+            index = g.sub(index, inside(gin.outputs[f"Cascade {i} Center"], gin.outputs[f"Cascade {i} Half"]))
+    else:                        # the cascade whose view-depth range holds the point, if it covers it
+        view_depth = g.vmath("DOT_PRODUCT", g.vmath("SUBTRACT", point, gin.outputs["Camera Position"]),
+                             gin.outputs["Camera Forward"])
+        index = 0.0
+        for i in range(n):
+            far = g.separate(gin.outputs[f"Cascade {i} Center"])[2]
+            index = g.add(index, g.math("GREATER_THAN", view_depth, far))
+        chosen = g.math("MINIMUM", index, n - 1)
+        covered = inside(parameter("center_far", chosen), parameter("half_bias", chosen))
+        index = g.lerp(float(n), index, covered)
+    g.links.new(index, gout.inputs["Cascade"])
+    # "First cascade to ray march": points of smaller cascades use that one (cascades nest).
+    index = g.math("MAXIMUM", index, g.math("MINIMUM", gin.outputs["First Cascade"], n - 1))
+
+    cascade = g.math("MINIMUM", index, n - 1)
+    cx, cy, _ = g.separate(parameter("center_far", cascade))
+    hx, hy, bias = g.separate(parameter("half_bias", cascade))
+    mask = parameter("channel_mask", cascade)
+    block = g.separate(parameter("block", cascade))[0]
+    res = atlas_image.size[1]
+    width = atlas_image.size[0]
+    column = g.math("FLOOR", g.mul(g.div(g.add(g.sub(x, cx), hx), g.mul(hx, 2.0)), res))
+    row = g.math("FLOOR", g.mul(g.div(g.add(g.sub(y, cy), hy), g.mul(hy, 2.0)), res))
+    taps = shadow_map.PCF_OFFSETS if layout.smooth else shadow_map.PCF_OFFSETS[:1]
+    lit = 0.0
+    for dx, dy in taps:
+        c = g.clamp(g.add(column, float(dx)), 0.0, res - 1) if dx else g.clamp(column, 0.0, res - 1)
+        r = g.clamp(g.add(row, float(dy)), 0.0, res - 1) if dy else g.clamp(row, 0.0, res - 1)
+        u = g.div(g.add(g.mul_add(block, res, c), 0.5), width)
+        v = g.div(g.add(r, 0.5), res)
+        stored = g.vmath("DOT_PRODUCT", g.image(atlas_image, g.combine(u, v, 1.0), interpolation="Closest"), mask)
+        lit = g.add(lit, g.math("GREATER_THAN", sun_depth, g.sub(stored, bias)))
+    lit = g.div(lit, float(len(taps)))
+    tested = g.math("LESS_THAN", index, n - 0.5)
+    g.links.new(g.lerp(1.0, lit, tested), gout.inputs["Lit"])
+    return tree
+
+
+def build_integration_group(optical_image, params):
+    """"OLS Integration Step": single scattering of one march step, sigma_s P(theta) T(C->X)
+    T_sun(X) x lit x step (the sample's "Singl sctr: integration"). Twin: the INTEGRATION
+    branch of lut_gen.aerial.light_shafts."""
+    tree = new_group(INTEGRATION_GROUP, "CompositorNodeTree")
+    inputs = [("Camera Position", "NodeSocketVector", (0.0, 0.0, 2.0)), ("Point", "NodeSocketVector", (0.0, 0.0, 0.0)),
+              ("Direction", "NodeSocketVector", (0.0, 1.0, 0.0)), ("Sun Direction", "NodeSocketVector", (0.0, 0.0, 1.0)),
+              ("Lit", "NodeSocketFloat", 1.0), ("Step", "NodeSocketFloat", 1.0)]
+    g, gin, gout = group_io(tree, inputs, [("Radiance", "NodeSocketVector", None)])
+    point, direction, sun = gin.outputs["Point"], gin.outputs["Direction"], gin.outputs["Sun Direction"]
+    height, up = frame = point_frame(g, point, params)
+    sun_transmittance = transmittance_to_top(g, optical_image, height, g.vmath("DOT_PRODUCT", up, sun), params)
+    view_transmittance = segment_transmittance(g, optical_image, point_frame(g, gin.outputs["Camera Position"], params),
+                                               frame, direction, params)
+    cos_theta = g.vmath("DOT_PRODUCT", direction, sun)
+    one_plus_c2 = g.mul_add(cos_theta, cos_theta, 1.0)
+    rayleigh_phase = g.mul(one_plus_c2, RAYLEIGH_PHASE_NORM)
+    mie_g = params.mie_g
+    mie_norm = 3.0 / (8.0 * 3.141592653589793) * (1.0 - mie_g ** 2) / (2.0 + mie_g ** 2)
+    mie_phase = g.div(g.mul(one_plus_c2, mie_norm),
+                      g.math("POWER", g.mul_add(cos_theta, -2.0 * mie_g, 1.0 + mie_g ** 2), 1.5))
+    rho_r = g.math("EXPONENT", g.div(height, -params.rayleigh_scale_height))
+    rho_m = g.math("EXPONENT", g.div(height, -params.mie_scale_height))
+    scattering = g.vmath("ADD", g.vscale(tuple(params.rayleigh), g.mul(rho_r, rayleigh_phase)),
+                         g.vscale(tuple(params.mie), g.mul(rho_m, mie_phase)))
+    weight = g.mul(gin.outputs["Lit"], gin.outputs["Step"])
+    radiance = g.vscale(g.vmath("MULTIPLY", g.vmath("MULTIPLY", scattering, view_transmittance), sun_transmittance), weight)
+    g.links.new(radiance, gout.inputs["Radiance"])
+    return tree
+
+
+MAIN_INPUTS = [
+    ("Image", "NodeSocketColor", (0.0, 0.0, 0.0, 1.0)),
+    ("Position", "NodeSocketVector", (0.0, 0.0, 0.0)),
+    ("Depth", "NodeSocketFloat", 1e10),
+    ("Camera Right", "NodeSocketVector", (1.0, 0.0, 0.0)),
+    ("Camera Up", "NodeSocketVector", (0.0, 0.0, 1.0)),
+    ("Tan Half FOV", "NodeSocketVector", (0.5, 0.3, 0.0)),
+    ("Far Depth", "NodeSocketFloat", 1000.0),
+    ("Sun Strength", "NodeSocketFloat", 10.0),
+    ("Scattering Scale", "NodeSocketFloat", 0.5),
+    ("Enable", "NodeSocketFloat", 1.0),
+    ("Show Cascades", "NodeSocketFloat", 0.0),
+]
+
+
+def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params, layout: ShaftLayout):
+    """(Re)build "OLS Light Shafts" and its sub-groups for ``layout``."""
+    shadow_test_tree = build_shadow_test_group(layout, atlas_image, parameter_image)
+    integration = build_integration_group(optical_image, params)
+    tree = new_group(GROUP_NAME, "CompositorNodeTree")
+    tree["ols_layout"] = layout.as_key()
+    inputs = MAIN_INPUTS + SHARED_INPUTS + cascade_inputs(layout.cascades)
+    g, gin, gout = group_io(tree, inputs, [("Image", "NodeSocketColor", None)])
+    camera, forward = gin.outputs["Camera Position"], gin.outputs["Camera Forward"]
+    sun = g.vmath("NORMALIZE", gin.outputs["Sun Direction"])
+
+    # The pixel's ray: to the surface, or (sky) to view depth "Far Depth".
+    coordinates = g.node("CompositorNodeImageCoordinates")
+    g.links.new(gin.outputs["Image"], coordinates.inputs["Image"])
+    nx, ny, _ = g.separate(coordinates.outputs["Normalized"])
+    tx, ty, _ = g.separate(gin.outputs["Tan Half FOV"])
+    local = [g.mul(g.mul_add(nx, 2.0, -1.0), tx), g.mul(g.mul_add(ny, 2.0, -1.0), ty)]
+    pixel_direction = g.vmath("NORMALIZE", g.vmath("ADD", g.vmath("ADD", g.vscale(gin.outputs["Camera Right"], local[0]),
+                                                                   g.vscale(gin.outputs["Camera Up"], local[1])), forward))
+    along = g.div(gin.outputs["Far Depth"], g.math("MAXIMUM", g.vmath("DOT_PRODUCT", pixel_direction, forward), MIN_FORWARD_COSINE))
+    geometry = g.math("LESS_THAN", gin.outputs["Depth"], SKY_DEPTH)
+    end = g.vlerp(g.vmath("MULTIPLY_ADD", pixel_direction, g.combine(along, along, along), camera),
+                  gin.outputs["Position"], geometry)
+    ray = g.vmath("SUBTRACT", end, camera)
+    length = g.vmath("LENGTH", ray)
+    direction = g.vscale(ray, g.div(1.0, g.math("MAXIMUM", length, 1e-9)))
+    step = g.div(length, float(layout.steps))
+
+    def shadow_test(point):
+        node = g.node("CompositorNodeGroup")
+        node.node_tree = shadow_test_tree
+        g.links.new(point, node.inputs["Point"])
+        for name, *_ in SHARED_INPUTS + cascade_inputs(layout.cascades):
+            g.links.new(gin.outputs[name], node.inputs[name])
+        return node
+
+    lit_length, first_lit, integrated = 0.0, NEVER, None
+    for i in range(layout.steps):
+        t = g.mul(step, i + 0.5)
+        point = g.vmath("MULTIPLY_ADD", direction, g.combine(t, t, t), camera)
+        lit = shadow_test(point).outputs["Lit"]
+        lit_length = g.add(lit_length, lit)
+        unlit = g.math("LESS_THAN", lit, 1e-6)
+        first_lit = g.math("MINIMUM", first_lit, g.mul_add(unlit, NEVER, g.mul(step, float(i))))
+        if layout.single_mode == "INTEGRATION":
+            node = g.node("CompositorNodeGroup")
+            node.node_tree = integration
+            for name, value in (("Camera Position", camera), ("Point", point), ("Direction", direction),
+                                ("Sun Direction", sun), ("Lit", lit), ("Step", step)):
+                g.feed(node.inputs[name], value)
+            integrated = node.outputs["Radiance"] if integrated is None else g.vmath("ADD", integrated, node.outputs["Radiance"])
+    lit_length = g.mul(lit_length, step)
+    first_lit = g.math("MINIMUM", first_lit, length)
+
+    camera_frame = point_frame(g, camera, params)
+
+    def transmittance_to(point):
+        return segment_transmittance(g, optical_image, camera_frame, point_frame(g, point, params), direction, params)
+
+    lit_start = g.vmath("MULTIPLY_ADD", direction, g.combine(first_lit, first_lit, first_lit), camera)
+    lit_end = g.vmath("MULTIPLY_ADD", direction, g.combine(lit_length, lit_length, lit_length), lit_start)
+    has_lit = g.math("GREATER_THAN", lit_length, 0.0)
+    end_transmittance = transmittance_to(end)
+
+    def lit_section(table):
+        radiance = section_inscattering(g, table, lit_start, lit_end, direction, sun, transmittance_to(lit_start),
+                                        transmittance_to(lit_end), params)
+        return g.vscale(radiance, has_lit)
+
+    terms = []
+    if layout.single_mode == "INTEGRATION":
+        terms.append(integrated)
+    if layout.single_mode == "LUT":
+        terms.append(lit_section("multiple" if layout.multiple_mode == "OCCLUDED" else "single"))
+    if layout.multiple_mode == "OCCLUDED" and layout.single_mode != "LUT":
+        terms.append(lit_section("higher"))
+    if layout.multiple_mode == "UNOCCLUDED":
+        terms.append(section_inscattering(g, "higher", camera, end, direction, sun, None, end_transmittance, params))
+    shadowed = (0.0, 0.0, 0.0)
+    for term in terms:
+        shadowed = g.vmath("ADD", shadowed, term)
+    unshadowed = section_inscattering(g, "multiple", camera, end, direction, sun, None, end_transmittance, params)
+    scale = g.mul(g.mul(gin.outputs["Sun Strength"], gin.outputs["Scattering Scale"]), gin.outputs["Enable"])
+    result = g.vmath("MULTIPLY_ADD", g.vmath("SUBTRACT", shadowed, unshadowed), g.combine(scale, scale, scale),
+                     gin.outputs["Image"])
+
+    # Show Cascades: tint surfaces with the colour of the cascade they fall in.
+    end_cascade = shadow_test(end).outputs["Cascade"]
+    colour_u = g.div(g.add(end_cascade, 0.5), layout.cascades + 1)
+    colour_v = (shadow_map.PARAM_ROWS.index("color") + 0.5) / len(shadow_map.PARAM_ROWS)
+    colour = g.image(parameter_image, g.combine(colour_u, colour_v, 1.0), interpolation="Closest")
+    tint = g.vlerp((1.0, 1.0, 1.0), colour, g.mul(gin.outputs["Show Cascades"], geometry))
+    result = g.vmath("MULTIPLY", result, tint)
+
+    merge = g.node("CompositorNodeCombineColor")
+    split = g.node("CompositorNodeSeparateColor")
+    g.links.new(gin.outputs["Image"], split.inputs["Image"])
+    for name, value in zip(("Red", "Green", "Blue"), g.separate(result)):
+        g.feed(merge.inputs[name], value)
+    g.links.new(split.outputs["Alpha"], merge.inputs["Alpha"])
+    g.links.new(merge.outputs["Image"], gout.inputs["Image"])
+    return tree

@@ -1,0 +1,227 @@
+"""Light adaptation across frames: the tone mapping of frame f uses the luminance the eye adapted
+to by then, previous + (measured - previous)(1 - exp(-rate dt)), the sample's rate 1/s.
+
+A compositor tree has no memory across frames, so Python carries the adapted luminance. The
+"OLS Tone Mapping" group outputs the luminance a frame used as a 1 x 1 image; our File Output node
+writes it to a temporary EXR (Viewer nodes do not run in background renders; File Output nodes
+run in every final render). The render handlers read it back after each frame and set the
+group's "Previous Luminance" and "Adaptation Weight" for the next one.
+
+When the inputs must be set (measured in bpy 5.0.1): a still render (render_init, render_pre,
+then the pipeline depsgraph is built) takes what render_pre sets. An animation render evaluates
+its pipeline depsgraph for frame f *before* render_pre and frame_change_pre of f, so values set
+there reach the compositor one frame late; the values for f + step are set in render_post of f,
+and those for the first frame in render_init.
+"""
+from __future__ import annotations
+
+import os
+import struct
+from pathlib import Path
+
+import bpy
+from bpy.app.handlers import persistent
+
+from ..post import tone_mapping as twin
+
+TONE_NODE = "OLS Tone Mapping"          # compositor.NODE_NAME (not imported: compositor imports us)
+OUTPUT_NODE = "OLS Adapted Luminance"
+OUTPUT_FILE = "adapted_luminance_"
+LUMINANCE_KEY = "ols_adapted_luminance"  # on the scene: the adapted luminance of ...
+FRAME_KEY = "ols_adapted_frame"          # ... the last frame rendered through the tone mapping
+
+
+# -- the adaptation state (pure) ----------------------------------------------------------------
+
+def frame_seconds(fps: int, fps_base: float) -> float:
+    return fps_base / fps
+
+
+def inputs_for_frame(frame: int, last_frame, last_luminance, *, enabled: bool, frame_step: int,
+                     seconds_per_frame: float, rate: float = twin.ADAPTATION_RATE):
+    """("Previous Luminance", "Adaptation Weight") for rendering ``frame`` after the last frame
+    rendered (``last_frame``, None if none). The eye adapts only along a sequence: ``frame`` must
+    follow ``last_frame`` by 1 to ``frame_step`` frames; a jump or a re-render starts afresh
+    (weight 1: the frame's own measured luminance)."""
+    fresh = (twin.FIXED_AVERAGE_LUMINANCE, 1.0)
+    if not enabled or last_frame is None or last_luminance is None:
+        return fresh
+    frames = frame - last_frame
+    if not 0 < frames <= max(frame_step, 1):
+        return fresh
+    return float(last_luminance), twin.adaptation_weight(frames * seconds_per_frame, rate)
+
+
+def read_exr_pixel(path) -> float:
+    """The first pixel of the first channel of an uncompressed scanline EXR (what our File
+    Output node writes). Blender's Python has no OpenEXR, and loading an image datablock from a
+    render handler (the render job's thread in the UI) is not safe, so the few bytes are parsed here."""
+    data = Path(path).read_bytes()
+    if data[:4] != b"\x76\x2f\x31\x01":
+        raise ValueError(f"{path}: not an OpenEXR file")
+    pos, channels, compression = 8, [], None
+    while data[pos] != 0:
+        name_end = data.index(b"\0", pos)
+        type_end = data.index(b"\0", name_end + 1)
+        name, kind = data[pos:name_end].decode(), data[name_end + 1:type_end].decode()
+        size = struct.unpack_from("<i", data, type_end + 1)[0]
+        value = data[type_end + 5:type_end + 5 + size]
+        if kind == "chlist":
+            at = 0
+            while value[at] != 0:
+                end = value.index(b"\0", at)
+                channels.append((value[at:end].decode(), struct.unpack_from("<i", value, end + 1)[0]))
+                at = end + 17                        # type, pLinear + 3 reserved, x and y sampling
+        elif name == "compression":
+            compression = value[0]
+        pos = type_end + 5 + size
+    if compression != 0 or not channels:
+        raise ValueError(f"{path}: expected an uncompressed EXR with channels")
+    first_chunk = struct.unpack_from("<Q", data, pos + 1)[0]   # offset table after the header's 0
+    pixels = first_chunk + 8                                   # past the chunk's y and byte count
+    pixel_type = channels[0][1]                                # 1 half, 2 float (channels sorted by name)
+    if pixel_type == 2:
+        return float(struct.unpack_from("<f", data, pixels)[0])
+    if pixel_type == 1:
+        return float(struct.unpack_from("<e", data, pixels)[0])
+    raise ValueError(f"{path}: unsupported pixel type {pixel_type}")
+
+
+# -- the scene side -----------------------------------------------------------------------------
+
+def output_directory(scene) -> str:
+    """Per scene and per session: Blender's temporary folder goes away when Blender exits."""
+    return os.path.join(bpy.app.tempdir or "/tmp", "ols_adaptation", bpy.path.clean_name(scene.name), "")
+
+
+def ensure_output_node(tree, tone_node):
+    """Our File Output node, fed by the tone-mapping group's "Adapted Luminance" (idempotent)."""
+    node = tree.nodes.get(OUTPUT_NODE)
+    if node is None:
+        node = tree.nodes.new("CompositorNodeOutputFile")
+        node.name = node.label = OUTPUT_NODE
+        node.location = (tone_node.location.x, tone_node.location.y - 200)
+        node.format.media_type = "IMAGE"
+        node.format.file_format = "OPEN_EXR"
+        node.format.color_depth = "32"
+        node.format.exr_codec = "NONE"
+        node.format.color_mode = "BW"
+        node.file_name = OUTPUT_FILE
+        node.file_output_items.new("FLOAT", "")
+    if not node.inputs[0].is_linked:
+        tree.links.new(tone_node.outputs["Adapted Luminance"], node.inputs[0])
+    return node
+
+
+def remove_output_node(tree):
+    node = tree.nodes.get(OUTPUT_NODE)
+    if node is not None:
+        tree.nodes.remove(node)
+
+
+def _nodes(scene):
+    tree = scene.compositing_node_group
+    if tree is None:
+        return None, None
+    tone, output = tree.nodes.get(TONE_NODE), tree.nodes.get(OUTPUT_NODE)
+    if tone is None or tone.node_tree is None or "Adaptation Weight" not in tone.inputs:
+        return None, output
+    return tone, output
+
+
+def _set(tone, previous: float, weight: float):
+    """Only what changed (every assignment tags the depsgraph)."""
+    for name, value in (("Previous Luminance", previous), ("Adaptation Weight", weight)):
+        if abs(tone.inputs[name].default_value - value) > 1e-7 * max(1.0, abs(value)):
+            tone.inputs[name].default_value = value
+
+
+def push_inputs(scene, frame: int):
+    """Set the group's adaptation inputs for rendering ``frame`` from the stored state."""
+    tone, _ = _nodes(scene)
+    if tone is None:
+        return
+    render = scene.render
+    previous, weight = inputs_for_frame(
+        frame, scene.get(FRAME_KEY), scene.get(LUMINANCE_KEY), enabled=scene.ols.light_adaptation,
+        frame_step=scene.frame_step, seconds_per_frame=frame_seconds(render.fps, render.fps_base))
+    _set(tone, previous, weight)
+
+
+def _clear_files(directory: str):
+    for entry in Path(directory).glob("*.exr"):
+        entry.unlink(missing_ok=True)
+
+
+def forget(scene):
+    for key in (LUMINANCE_KEY, FRAME_KEY):
+        if key in scene:
+            del scene[key]
+
+
+def record_frame(scene, frame: int):
+    """After a frame: store the luminance it used (from our File Output's file) as the state.
+    No file (compositing off, pass not wired): the sequence is broken, forget the state."""
+    _, output = _nodes(scene)
+    files = sorted(Path(output.directory).glob("*.exr"), key=lambda p: p.stat().st_mtime) if output else []
+    luminance = None
+    if files:
+        try:
+            luminance = read_exr_pixel(files[-1])
+        except (OSError, ValueError, struct.error) as exc:
+            print(f"Outdoor Light Scattering: cannot read the adapted luminance: {exc}")
+        _clear_files(output.directory)
+    if luminance is None or not luminance > 0.0:
+        forget(scene)
+        return
+    scene[LUMINANCE_KEY] = luminance
+    scene[FRAME_KEY] = frame
+
+
+def begin_render(scene):
+    """A render job starts: point our File Output at this session's folder, drop stale files and
+    set the inputs for the first frame an animation renders (a still's render_pre corrects them)."""
+    _, output = _nodes(scene)
+    if output is None:
+        return
+    directory = output_directory(scene)
+    os.makedirs(directory, exist_ok=True)
+    _clear_files(directory)
+    if output.directory != directory:
+        output.directory = directory
+    push_inputs(scene, scene.frame_start)
+
+
+def end_render(scene):
+    """Back to no adaptation, so the viewport compositor and a saved file show the plain frame."""
+    tone, _ = _nodes(scene)
+    if tone is not None:
+        _set(tone, twin.FIXED_AVERAGE_LUMINANCE, 1.0)
+
+
+@persistent
+def on_render_init(scene, *_args):
+    begin_render(scene)
+
+
+@persistent
+def on_render_pre(scene, *_args):
+    push_inputs(scene, scene.frame_current)
+
+
+@persistent
+def on_render_post(scene, *_args):
+    record_frame(scene, scene.frame_current)
+    push_inputs(scene, scene.frame_current + max(scene.frame_step, 1))
+
+
+@persistent
+def on_render_end(scene, *_args):
+    end_render(scene)
+
+
+HANDLERS = ((bpy.app.handlers.render_init, on_render_init),
+            (bpy.app.handlers.render_pre, on_render_pre),
+            (bpy.app.handlers.render_post, on_render_post),
+            (bpy.app.handlers.render_complete, on_render_end),
+            (bpy.app.handlers.render_cancel, on_render_end))

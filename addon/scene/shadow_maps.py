@@ -1,0 +1,146 @@
+"""The sun's cascaded shadow maps for the light-shaft pass: the scene's evaluated meshes
+rendered orthographically along the sun direction by lut_gen.shadow_map, stored in two
+images the "OLS Light Shafts" group reads ("OLS Shadow Map", "OLS Shadow Cascades").
+
+They are rendered again before each frame renders (render_pre), since sun, camera and geometry
+may all have moved; the camera model and the cascades also feed the group's inputs.
+"""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from ...lut_gen import shadow_map
+from . import sun as sun_lamps
+
+ATLAS_IMAGE = "OLS Shadow Map"
+PARAMETER_IMAGE = "OLS Shadow Cascades"
+MIN_NEAR = 1.0              # m: the first split; the camera's clip start when larger
+
+
+class ShadowMapError(ValueError):
+    """The scene cannot have shadow maps (says what to change)."""
+
+
+def camera_model(scene) -> shadow_map.Camera:
+    """The scene camera as lut_gen's Camera (position, rotation, tangents of the half field of
+    view for the render's aspect)."""
+    camera = scene.camera
+    if camera is None:
+        raise ShadowMapError("the scene has no camera: add one and make it the scene camera")
+    if camera.data.type != "PERSP":
+        raise ShadowMapError(f"light shafts need a perspective camera; {camera.name!r} is {camera.data.type.lower()}")
+    matrix = camera.matrix_world
+    rotation = np.array(matrix.to_3x3().normalized())
+    frame = camera.data.view_frame(scene=scene)
+    corners = np.array([tuple(v) for v in frame])
+    depth = abs(corners[0, 2])
+    tan_half = (float(np.abs(corners[:, 0]).max() / depth), float(np.abs(corners[:, 1]).max() / depth))
+    return shadow_map.Camera(np.array(matrix.translation), rotation, tan_half)
+
+
+def scene_triangles(depsgraph) -> np.ndarray:
+    """(M, 3, 3) world-space triangles of every evaluated mesh that casts shadows."""
+    chunks = []
+    for instance in depsgraph.object_instances:
+        obj = instance.object
+        if obj.type != "MESH" or not getattr(obj, "visible_shadow", True) or obj.hide_render:
+            continue
+        mesh = obj.to_mesh()
+        try:
+            mesh.calc_loop_triangles()
+            count = len(mesh.loop_triangles)
+            if count == 0:
+                continue
+            coordinates = np.empty(len(mesh.vertices) * 3, dtype=np.float64)
+            mesh.vertices.foreach_get("co", coordinates)
+            indices = np.empty(count * 3, dtype=np.int64)
+            mesh.loop_triangles.foreach_get("vertices", indices)
+        finally:
+            obj.to_mesh_clear()
+        matrix = np.array(instance.matrix_world)
+        world = coordinates.reshape(-1, 3) @ matrix[:3, :3].T + matrix[:3, 3]
+        chunks.append(world[indices].reshape(-1, 3, 3))
+    return np.concatenate(chunks) if chunks else np.zeros((0, 3, 3))
+
+
+def far_depth(camera: shadow_map.Camera, triangles, clip_end: float, near: float) -> float:
+    """View depth of the farthest geometry (capped by the camera's clip end): beyond it nothing
+    can shadow the air."""
+    if len(triangles) == 0:
+        return max(near * 2.0, 1.0)
+    depth = float(np.max((triangles.reshape(-1, 3) - camera.position) @ camera.forward))
+    return float(np.clip(depth, near * 2.0, max(clip_end, near * 2.0)))
+
+
+def render(scene, depsgraph) -> shadow_map.ShadowCascades:
+    """Render the cascades for the scene's camera, sun and settings."""
+    settings = scene.ols
+    sun = sun_lamps.find_sun(scene)
+    if sun is None:
+        raise ShadowMapError("the scene has no Sun lamp: run Set Up Scene or add a Sun lamp")
+    resolution = int(settings.shadow_map_resolution)
+    if resolution < 16:
+        raise ShadowMapError(f"shadow map resolution {resolution} is too small; pick 512 or more")
+    camera = camera_model(scene)
+    triangles = scene_triangles(depsgraph)
+    near = max(scene.camera.data.clip_start, MIN_NEAR)
+    far = far_depth(camera, triangles, scene.camera.data.clip_end, near)
+    return shadow_map.render_cascades(triangles, camera, sun_lamps.direction_to_sun(sun), resolution,
+                                      settings.num_cascades, settings.cascade_partitioning_factor, near, far)
+
+
+def _image(name, width, height):
+    image = bpy.data.images.get(name)
+    if image is None:
+        image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True, is_data=True)
+    elif tuple(image.size) != (width, height):
+        image.scale(width, height)
+    # Before writing: changing the colour space afterwards regenerates the buffer.
+    image.colorspace_settings.is_data = True
+    image.alpha_mode = "NONE"
+    return image
+
+
+def write_images(cascades: shadow_map.ShadowCascades):
+    """The packed atlas and parameter table into the two images (created or resized)."""
+    for name, pixels in ((ATLAS_IMAGE, shadow_map.pack_atlas(cascades)),
+                         (PARAMETER_IMAGE, shadow_map.pack_parameters(cascades))):
+        image = _image(name, pixels.shape[1], pixels.shape[0])
+        image.pixels.foreach_set(np.ascontiguousarray(pixels, dtype=np.float32).ravel())
+        image.update()
+
+
+def ensure_images(resolution: int, count: int):
+    """The two images at the size ``resolution`` and ``count`` need (contents: all lit until
+    the first render writes them)."""
+    empty = shadow_map.ShadowCascades(np.eye(3), np.zeros((count, 2)), np.ones((count, 2)),
+                                      np.ones(count), np.full((count, resolution, resolution), shadow_map.EMPTY_DEPTH))
+    atlas = bpy.data.images.get(ATLAS_IMAGE)
+    params = bpy.data.images.get(PARAMETER_IMAGE)
+    blocks = -(-count // shadow_map.CASCADES_PER_BLOCK)
+    if (atlas is None or params is None or tuple(atlas.size) != (blocks * resolution, resolution)
+            or tuple(params.size) != (count + 1, len(shadow_map.PARAM_ROWS))):
+        write_images(empty)
+    return bpy.data.images[ATLAS_IMAGE], bpy.data.images[PARAMETER_IMAGE]
+
+
+def group_inputs(cascades: shadow_map.ShadowCascades, camera: shadow_map.Camera) -> dict:
+    """Values of the "OLS Light Shafts" inputs that come from the camera and the cascades."""
+    values = {"Camera Position": tuple(camera.position), "Camera Forward": tuple(camera.forward),
+              "Camera Right": tuple(camera.rotation[:, 0]), "Camera Up": tuple(camera.rotation[:, 1]),
+              "Tan Half FOV": (camera.tan_half_fov[0], camera.tan_half_fov[1], 0.0),
+              "Light Right": tuple(cascades.frame[0]), "Light Up": tuple(cascades.frame[1]),
+              "Sun Direction": tuple(cascades.frame[2]), "Far Depth": float(cascades.far_depths[-1])}
+    biases = cascades.biases()
+    for i in range(cascades.count):
+        values[f"Cascade {i} Center"] = (*cascades.centers[i], cascades.far_depths[i])
+        values[f"Cascade {i} Half"] = (*cascades.halves[i], biases[i])
+    return values
+
+
+def remove_images():
+    for name in (ATLAS_IMAGE, PARAMETER_IMAGE):
+        image = bpy.data.images.get(name)
+        if image is not None:
+            bpy.data.images.remove(image)
