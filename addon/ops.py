@@ -12,7 +12,7 @@ from bpy.props import BoolProperty, EnumProperty, StringProperty
 
 from .. import lut_gen
 from . import props
-from .scene import adaptation, animation, compositor, luts, shadow_maps, wiring
+from .scene import adaptation, animation, compositor, frame_update, luts, shadow_maps, wiring
 from .scene import sun as sun_lamps
 
 RESOLUTION_ITEMS = [("default", "Default", "The sample's 32 x 128 x 64 x 16 tables (~10-20 s)"),
@@ -223,21 +223,43 @@ def on_frame_change(scene, depsgraph=None):
 
 @persistent
 def on_depsgraph_update(scene, depsgraph=None):
+    frame_update.note_depsgraph_update(depsgraph)
     _update_scene(scene)
 
 
-@persistent
-def on_render_pre(scene, *_args):
-    """Shadow maps for the frame about to render. Where they cannot be made, the light-shaft
-    pass is switched off for this render and the reason printed (the render still completes)."""
+def _update_frame(scene, depsgraph):
+    """Shadow maps and frame values before the frame is composited. Where they cannot be made,
+    the light-shaft pass is off for this render and the reason printed (the render completes)."""
     if not scene.get(wiring.WIRED_KEY):
         return
     try:
         wiring.match_light_shaft_layout(scene)
-        compositor.update_light_shafts(scene, bpy.context.evaluated_depsgraph_get())
+        frame_update.update_frame(scene, depsgraph)
     except (shadow_maps.ShadowMapError, ValueError) as exc:
         compositor.disable_light_shafts(scene)
         print(f"Outdoor Light Scattering: light shafts are off for this render: {exc}")
+
+
+@persistent
+def on_render_pre(scene, *_args):
+    _update_frame(scene, bpy.context.evaluated_depsgraph_get())
+
+
+@persistent
+def on_frame_change_post(scene, depsgraph=None):
+    """In an animation render this runs after render_pre, with the frame's evaluated state."""
+    if frame_update.rendering() and depsgraph is not None:
+        _update_frame(scene, depsgraph)
+
+
+@persistent
+def on_render_init(*_args):
+    frame_update.set_rendering(True)
+
+
+@persistent
+def on_render_end(*_args):
+    frame_update.set_rendering(False)
 
 
 @persistent
@@ -277,6 +299,10 @@ def invoke_bake_in_window(resolution="default"):
 HANDLERS = ((bpy.app.handlers.frame_change_pre, on_frame_change),
             (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
             (bpy.app.handlers.render_pre, on_render_pre),
+            (bpy.app.handlers.frame_change_post, on_frame_change_post),
+            (bpy.app.handlers.render_init, on_render_init),
+            (bpy.app.handlers.render_complete, on_render_end),
+            (bpy.app.handlers.render_cancel, on_render_end),
             (bpy.app.handlers.undo_post, on_data_replaced),
             (bpy.app.handlers.redo_post, on_data_replaced),
             (bpy.app.handlers.load_post, on_file_loaded)) + adaptation.HANDLERS

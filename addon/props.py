@@ -64,8 +64,8 @@ PROPERTIES_BY_SET = {
     ],
 }
 
-# Controls that act on the sky/terrain/tables today; every other control takes effect with the
-# compositor passes (light scattering, epipolar sampling, shadow maps, tone mapping).
+# Controls that act on the render today; the others belong to the epipolar sampling technique,
+# which is not built yet (the brute-force per-pixel pass is).
 _LIVE_NOW = {
     "scattering_scale",
     "use_custom_scattering_coeffs",
@@ -82,10 +82,21 @@ _LIVE_NOW = {
     "light_adaptation",
     "enable_light_scattering",
     "lighting_only",
+    "enable_light_shafts",
+    "shadow_map_resolution",
+    "num_integration_steps",
+    "single_scattering_mode",
+    "multiple_scattering_mode",
+    "num_cascades",
+    "show_cascades",
+    "smooth_shadows",
+    "best_cascade_search",
+    "cascade_partitioning_factor",
+    "first_cascade_to_ray_march",
 }
 LATER_ISSUE = frozenset(name for names in PROPERTIES_BY_SET.values() for name in names) - _LIVE_NOW
 
-LATER_NOTE = "(arrives with the compositor passes)"
+LATER_NOTE = "(arrives with epipolar sampling)"
 
 # Mie scattering coefficient at aerosol density 1 for a white Mie colour (1/m).
 MIE_SCATTERING_SCALE = DEFAULT_MIE_SCATTERING[0]
@@ -108,10 +119,12 @@ def _rebake_soon(settings, context):
     bpy.app.timers.register(_start_rebake, first_interval=REBAKE_DELAY_S)
 
 
-def _sync_tone_mapping(settings, context):
-    """Compositor inputs follow the settings (drivers on a compositor tree do not reach renders)."""
+def _sync_compositor(settings, context):
+    """Compositor groups and inputs follow the settings (drivers on a compositor tree do not
+    reach renders); steps, modes and cascade settings rebuild the light-shaft groups."""
     if context.scene is not None:
-        from .scene import compositor
+        from .scene import compositor, wiring
+        wiring.match_light_shaft_layout(context.scene)
         compositor.sync_settings(context.scene)
 
 
@@ -145,7 +158,7 @@ class OLSSettings(bpy.types.PropertyGroup):
         name="Enable Light Scattering",
         description=_d("enable_light_scattering", "Enable or disable the light scattering effect"),
         default=True,
-        update=_sync_tone_mapping,
+        update=_sync_compositor,
     )
     enable_light_shafts: BoolProperty(
         name="Enable Light Shafts",
@@ -153,6 +166,7 @@ class OLSSettings(bpy.types.PropertyGroup):
                        "Render shafts of light. When disabled, a simpler algorithm that ignores "
                        "shadows computes the scattering integral"),
         default=True,
+        update=_sync_compositor,
     )
     scattering_technique: EnumProperty(
         name="Scattering Technique",
@@ -178,6 +192,7 @@ class OLSSettings(bpy.types.PropertyGroup):
             ("4096", "4096 x 4096", "4096 x 4096 shadow map"),
         ),
         default="1024",
+        update=_sync_compositor,
     )
     num_integration_steps: IntProperty(
         name="Num Integration Steps",
@@ -185,6 +200,7 @@ class OLSSettings(bpy.types.PropertyGroup):
                        "Number of steps of the numerical single scattering integral. Used only "
                        "when light shafts are off and single scattering mode is Integration"),
         default=30, min=5, max=100,
+        update=_sync_compositor,
     )
     epipolar_slices: IntProperty(
         name="Epipolar Slices",
@@ -226,7 +242,7 @@ class OLSSettings(bpy.types.PropertyGroup):
         description="Intensity of the scattering effect (almost no effect with automatic "
                     "exposure tone mapping)",
         default=0.5, min=0.0, soft_max=2.0, max=100.0,
-        update=_sync_tone_mapping,
+        update=_sync_compositor,
     )
     show_sampling: BoolProperty(
         name="Show Sampling",
@@ -264,7 +280,7 @@ class OLSSettings(bpy.types.PropertyGroup):
         name="Lighting Only",
         description=_d("lighting_only", "Show the light scattering effects only"),
         default=False,
-        update=_sync_tone_mapping,
+        update=_sync_compositor,
     )
 
     # -- additional -------------------------------------------------------------------------
@@ -280,6 +296,7 @@ class OLSSettings(bpy.types.PropertyGroup):
              "only measures the lit length of the ray"),
         ),
         default="LUT",
+        update=_sync_compositor,
     )
     multiple_scattering_mode: EnumProperty(
         name="Multiple Scattering",
@@ -292,21 +309,25 @@ class OLSSettings(bpy.types.PropertyGroup):
              "Higher order scattering from the whole view ray"),
         ),
         default="UNOCCLUDED",
+        update=_sync_compositor,
     )
     num_cascades: IntProperty(
         name="Num Cascades",
         description=_d("num_cascades", "Number of shadow map cascades"),
         default=6, min=1, max=8,
+        update=_sync_compositor,
     )
     show_cascades: BoolProperty(
         name="Show Cascades",
         description=_d("show_cascades", "Visualize the shadow map cascades"),
         default=False,
+        update=_sync_compositor,
     )
     smooth_shadows: BoolProperty(
         name="Smooth Shadows",
         description=_d("smooth_shadows", "Soften shadow edges by averaging 5 PCF samples"),
         default=True,
+        update=_sync_compositor,
     )
     best_cascade_search: BoolProperty(
         name="Best Cascade Search",
@@ -314,12 +335,14 @@ class OLSSettings(bpy.types.PropertyGroup):
                        "Use the smallest cascade a point projects into instead of the cascade "
                        "depth ranges, for better shadow quality"),
         default=True,
+        update=_sync_compositor,
     )
     cascade_partitioning_factor: FloatProperty(
         name="Partitioning Factor",
         description=_d("cascade_partitioning_factor",
                        "Blend between linear (0) and logarithmic (1) cascade distribution"),
         default=0.95, min=0.0, max=1.0, subtype='FACTOR',
+        update=_sync_compositor,
     )
     first_cascade_to_ray_march: IntProperty(
         name="First Cascade to Ray March",
@@ -327,6 +350,7 @@ class OLSSettings(bpy.types.PropertyGroup):
                        "Smallest cascade considered during ray marching; the one or two smallest "
                        "can usually be skipped without visible loss"),
         default=2, min=0, max=7,
+        update=_sync_compositor,
     )
     extinction_evaluation_mode: EnumProperty(
         name="Extinction Evaluation",
@@ -396,7 +420,7 @@ class OLSSettings(bpy.types.PropertyGroup):
         description=_d("middle_gray",
                        "Tone of the scene: larger values look brighter, smaller values dimmer"),
         default=0.18, min=0.01, max=1.0,
-        update=_sync_tone_mapping,
+        update=_sync_compositor,
     )
     white_point: FloatProperty(
         name="White Point",
@@ -404,7 +428,7 @@ class OLSSettings(bpy.types.PropertyGroup):
                        "White point of the Reinhard Mod, Uncharted 2, Logarithmic and Adaptive "
                        "Log operators"),
         default=3.0, min=0.01, max=10.0,
-        update=_sync_tone_mapping,
+        update=_sync_compositor,
     )
     luminance_saturation: FloatProperty(
         name="Luminance Saturation",
@@ -412,14 +436,14 @@ class OLSSettings(bpy.types.PropertyGroup):
                        "Additional colour saturation of the Exp, Reinhard, Reinhard Mod, "
                        "Logarithmic and Adaptive Log operators"),
         default=1.0, min=0.1, max=2.0,
-        update=_sync_tone_mapping,
+        update=_sync_compositor,
     )
     auto_exposure: BoolProperty(
         name="Auto Exposure",
         description=_d("auto_exposure",
                        "Adjust exposure automatically from the log-average luminance of the scene"),
         default=True,
-        update=_sync_tone_mapping,
+        update=_sync_compositor,
     )
     tone_mapping_operator: EnumProperty(
         name="Tone Mapping Operator",
@@ -434,7 +458,7 @@ class OLSSettings(bpy.types.PropertyGroup):
             ("ADAPTIVE_LOG", "Adaptive Log", "Adaptive logarithmic tone mapping operator (Drago)"),
         ),
         default="UNCHARTED2",
-        update=_sync_tone_mapping,
+        update=_sync_compositor,
     )
     light_adaptation: BoolProperty(
         name="Light Adaptation",

@@ -94,7 +94,10 @@ def test_every_control_is_a_property(addon_package):
         "scattering_scale", "use_custom_scattering_coeffs", "rayleigh_color", "mie_color",
         "aerosol_density", "aerosol_absorption", "animate_sun",
         "middle_gray", "white_point", "luminance_saturation", "auto_exposure", "tone_mapping_operator",
-        "light_adaptation", "enable_light_scattering", "lighting_only"}
+        "light_adaptation", "enable_light_scattering", "lighting_only", "enable_light_shafts",
+        "shadow_map_resolution", "num_integration_steps", "single_scattering_mode", "multiple_scattering_mode",
+        "num_cascades", "show_cascades", "smooth_shadows", "best_cascade_search", "cascade_partitioning_factor",
+        "first_cascade_to_ray_march"}
     for name in names:
         description = rna[name].description
         assert description, name

@@ -1,6 +1,7 @@
 """Node-group builders: one module per group, all on top of builder.Graph."""
-from . import lookup
+from . import frame_values, lookup
 from .aerial import GROUP_NAME as AERIAL_GROUP, build_aerial_group
+from .frame_values import GROUP_NAME as FRAME_VALUES_GROUP, build_frame_values_group
 from .inscattering import lookup_group_name
 from .light_shafts import (GROUP_NAME as LIGHT_SHAFTS_GROUP, INTEGRATION_GROUP, SHADOW_TEST_GROUP, ShaftLayout,
                            build_light_shaft_groups)
@@ -11,4 +12,4 @@ from .tone_mapping import GROUP_NAME as TONE_MAPPING_GROUP, build_tone_mapping_g
 
 COMPOSITOR_TABLES = ("single", "higher", "multiple")
 GROUP_NAMES = (LOOKUP_GROUP, SKY_GROUP, TERRAIN_GROUP, TONE_MAPPING_GROUP, AERIAL_GROUP, LIGHT_SHAFTS_GROUP,
-               SHADOW_TEST_GROUP, INTEGRATION_GROUP) + tuple(lookup_group_name(t) for t in COMPOSITOR_TABLES)
+               SHADOW_TEST_GROUP, INTEGRATION_GROUP, FRAME_VALUES_GROUP) + tuple(lookup_group_name(t) for t in COMPOSITOR_TABLES)

@@ -1,7 +1,10 @@
-"""The aerial-perspective and tone-mapping passes in the scene's compositor, inserted without destroying a tree the
-user already has: our group node goes onto the link that feeds the tree's output, and
-``unwire_compositor`` puts that link back. The view transform is set to Standard (so nothing
-tone maps twice) and restored on unwire."""
+"""The scattering passes (aerial perspective, light shafts) and the tone mapping in the scene's
+compositor, inserted without destroying a tree the user already has: our group node goes onto
+the link that feeds the tree's output, and ``unwire_compositor`` puts that link back. The view
+transform is set to Standard (so nothing tone maps twice) and restored on unwire.
+
+Settings reach the groups' inputs here (sync_settings); per-frame values (camera, sun, shadow
+cascades) go through images, see frame_update."""
 from __future__ import annotations
 
 import bpy
@@ -9,14 +12,15 @@ import numpy as np
 
 from .. import nodes
 from ..post import tone_mapping
-from . import adaptation
-from . import shadow_maps, sun as sun_lamps
+from . import adaptation, luts
 
 TREE_NAME = "OLS Compositing"
 NODE_NAME = "OLS Tone Mapping"
 AERIAL_NODE = "OLS Aerial Perspective"
 LAYERS_NODE = "OLS Render Layers"
 SHAFTS_NODE = "OLS Light Shafts"
+FRAME_NODE = "OLS Frame Values"
+FRAME_IMAGE = "OLS Frame Values"
 PREVIOUS_PASSES = "ols_previous_passes"
 CREATED_TREE = "ols_created_compositor"
 PREVIOUS_VIEW = "ols_previous_view_transform"
@@ -105,8 +109,8 @@ def _insert_aerial(scene, tree, tone_node):
 
 
 def link_light_shafts(scene):
-    """Put the light-shaft group between the aerial perspective and the tone mapping (again
-    after a rebuild changed its sockets)."""
+    """Put the light-shaft group between the aerial perspective and the tone mapping, and feed
+    both from "OLS Frame Values" (again after a rebuild changed their sockets)."""
     tree = scene.compositing_node_group
     aerial, tone = tree.nodes.get(AERIAL_NODE), tree.nodes.get(NODE_NAME)
     layers = tree.nodes.get(LAYERS_NODE)
@@ -123,10 +127,25 @@ def link_light_shafts(scene):
     tree.links.new(shafts.outputs["Image"], tone.inputs["Image"])
     tree.links.new(layers.outputs["Position"], shafts.inputs["Position"])
     tree.links.new(layers.outputs["Depth"], shafts.inputs["Depth"])
+    frame = tree.nodes.get(FRAME_NODE)
+    if frame is None:
+        frame = tree.nodes.new("CompositorNodeGroup")
+        frame.name = FRAME_NODE
+        frame.location = (aerial.location.x - 200, aerial.location.y - 300)
+    if bpy.data.images.get(FRAME_IMAGE) is None:
+        luts.write_data_image(FRAME_IMAGE, nodes.frame_values.pack({}))
+    frame.node_tree = nodes.build_frame_values_group(bpy.data.images[FRAME_IMAGE])
+    tree.links.new(layers.outputs["Image"], frame.inputs["Image"])
+    for target in (aerial, shafts):
+        for output in frame.outputs:
+            if output.name in target.inputs:
+                tree.links.new(output, target.inputs[output.name])
 
 
 def unwire_compositor(scene):
     tree = scene.compositing_node_group
+    if tree is not None and tree.nodes.get(FRAME_NODE) is not None:
+        tree.nodes.remove(tree.nodes[FRAME_NODE])
     if tree is not None and tree.nodes.get(SHAFTS_NODE) is not None:
         tree.nodes.remove(tree.nodes[SHAFTS_NODE])
         aerial, tone = tree.nodes.get(AERIAL_NODE), tree.nodes.get(NODE_NAME)
@@ -183,15 +202,8 @@ def sync_settings(scene):
     aerial = tree.nodes.get(AERIAL_NODE)
     if aerial is None or aerial.node_tree is None:
         return
-    values = {"Enable": float(settings.enable_light_scattering), "Lighting Only": float(settings.lighting_only),
-              "Scattering Scale": settings.scattering_scale}
-    if scene.camera is not None:
-        values["Camera Position"] = tuple(scene.camera.matrix_world.translation)
-    sun = sun_lamps.find_sun(scene)
-    if sun is not None:
-        values["Sun Direction"] = tuple(sun_lamps.direction_to_sun(sun))
-        values["Sun Strength"] = sun.data.energy
-    _set_inputs(aerial, values)
+    _set_inputs(aerial, {"Enable": float(settings.enable_light_scattering),
+                         "Lighting Only": float(settings.lighting_only), "Scattering Scale": settings.scattering_scale})
     shafts = tree.nodes.get(SHAFTS_NODE)
     if shafts is not None and shafts.node_tree is not None:
         active = settings.enable_light_scattering and settings.enable_light_shafts
@@ -200,20 +212,7 @@ def sync_settings(scene):
         _set_inputs(shafts, {"Enable": float(settings.enable_light_scattering),
                              "Scattering Scale": settings.scattering_scale,
                              "First Cascade": float(settings.first_cascade_to_ray_march),
-                             "Show Cascades": float(settings.show_cascades),
-                             **{k: v for k, v in values.items() if k == "Sun Strength"}})
-
-
-def update_light_shafts(scene, depsgraph):
-    """Render the shadow maps for the current frame and feed camera and cascades to the light
-    shaft group (before each render: sun, camera and geometry may all have moved)."""
-    tree = scene.compositing_node_group
-    shafts = tree.nodes.get(SHAFTS_NODE) if tree is not None else None
-    if shafts is None or shafts.node_tree is None or shafts.mute:
-        return
-    cascades = shadow_maps.render(scene, depsgraph)
-    shadow_maps.write_images(cascades)
-    _set_inputs(shafts, shadow_maps.group_inputs(cascades, shadow_maps.camera_model(scene)))
+                             "Show Cascades": float(settings.show_cascades)})
 
 
 def _set_inputs(node, values: dict):

@@ -53,3 +53,21 @@ def release_unused_images():
     for image in list(bpy.data.images):
         if image.name.startswith(IMAGE_PREFIX + " ") and image.users == 0:
             bpy.data.images.remove(image)
+
+
+def write_data_image(name: str, pixels):
+    """Write (height, width, 4) float pixels (rows bottom to top) into the float image ``name``,
+    created or resized as needed, holding raw numbers (no colour management)."""
+    import numpy as np
+    height, width = pixels.shape[:2]
+    image = bpy.data.images.get(name)
+    if image is None:
+        image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True, is_data=True)
+    elif tuple(image.size) != (width, height):
+        image.scale(width, height)
+    # Before writing: changing the colour space afterwards regenerates the buffer.
+    image.colorspace_settings.is_data = True
+    image.alpha_mode = "NONE"
+    image.pixels.foreach_set(np.ascontiguousarray(pixels, dtype=np.float32).ravel())
+    image.update()
+    return image

@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 
 from ...lut_gen import shadow_map
-from . import sun as sun_lamps
+from . import luts, sun as sun_lamps
 
 ATLAS_IMAGE = "OLS Shadow Map"
 PARAMETER_IMAGE = "OLS Shadow Cascades"
@@ -22,12 +22,14 @@ class ShadowMapError(ValueError):
     """The scene cannot have shadow maps (says what to change)."""
 
 
-def camera_model(scene) -> shadow_map.Camera:
+def camera_model(scene, depsgraph=None) -> shadow_map.Camera:
     """The scene camera as lut_gen's Camera (position, rotation, tangents of the half field of
-    view for the render's aspect)."""
+    view for the render's aspect), as evaluated in ``depsgraph`` when given."""
     camera = scene.camera
     if camera is None:
         raise ShadowMapError("the scene has no camera: add one and make it the scene camera")
+    if depsgraph is not None:
+        camera = camera.evaluated_get(depsgraph)
     if camera.data.type != "PERSP":
         raise ShadowMapError(f"light shafts need a perspective camera; {camera.name!r} is {camera.data.type.lower()}")
     matrix = camera.matrix_world
@@ -73,42 +75,38 @@ def far_depth(camera: shadow_map.Camera, triangles, clip_end: float, near: float
     return float(np.clip(depth, near * 2.0, max(clip_end, near * 2.0)))
 
 
-def render(scene, depsgraph) -> shadow_map.ShadowCascades:
-    """Render the cascades for the scene's camera, sun and settings."""
-    settings = scene.ols
+def sun_state(scene, depsgraph=None):
+    """(unit direction toward the sun, lamp strength), as evaluated in ``depsgraph`` when given."""
     sun = sun_lamps.find_sun(scene)
     if sun is None:
         raise ShadowMapError("the scene has no Sun lamp: run Set Up Scene or add a Sun lamp")
+    if depsgraph is None:
+        return sun_lamps.direction_to_sun(sun), sun.data.energy
+    evaluated = sun.evaluated_get(depsgraph)
+    direction = np.array(evaluated.matrix_world.to_3x3().col[2], dtype=np.float64)
+    return direction / np.linalg.norm(direction), evaluated.data.energy
+
+
+def render(scene, depsgraph) -> shadow_map.ShadowCascades:
+    """Render the cascades for the scene's camera, sun and settings as evaluated in ``depsgraph``."""
+    settings = scene.ols
+    sun_direction, _ = sun_state(scene, depsgraph)
     resolution = int(settings.shadow_map_resolution)
     if resolution < 16:
         raise ShadowMapError(f"shadow map resolution {resolution} is too small; pick 512 or more")
-    camera = camera_model(scene)
+    camera = camera_model(scene, depsgraph)
     triangles = scene_triangles(depsgraph)
     near = max(scene.camera.data.clip_start, MIN_NEAR)
     far = far_depth(camera, triangles, scene.camera.data.clip_end, near)
-    return shadow_map.render_cascades(triangles, camera, sun_lamps.direction_to_sun(sun), resolution,
+    return shadow_map.render_cascades(triangles, camera, sun_direction, resolution,
                                       settings.num_cascades, settings.cascade_partitioning_factor, near, far)
-
-
-def _image(name, width, height):
-    image = bpy.data.images.get(name)
-    if image is None:
-        image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True, is_data=True)
-    elif tuple(image.size) != (width, height):
-        image.scale(width, height)
-    # Before writing: changing the colour space afterwards regenerates the buffer.
-    image.colorspace_settings.is_data = True
-    image.alpha_mode = "NONE"
-    return image
 
 
 def write_images(cascades: shadow_map.ShadowCascades):
     """The packed atlas and parameter table into the two images (created or resized)."""
     for name, pixels in ((ATLAS_IMAGE, shadow_map.pack_atlas(cascades)),
                          (PARAMETER_IMAGE, shadow_map.pack_parameters(cascades))):
-        image = _image(name, pixels.shape[1], pixels.shape[0])
-        image.pixels.foreach_set(np.ascontiguousarray(pixels, dtype=np.float32).ravel())
-        image.update()
+        luts.write_data_image(name, pixels)
 
 
 def ensure_images(resolution: int, count: int):
@@ -125,18 +123,22 @@ def ensure_images(resolution: int, count: int):
     return bpy.data.images[ATLAS_IMAGE], bpy.data.images[PARAMETER_IMAGE]
 
 
-def group_inputs(cascades: shadow_map.ShadowCascades, camera: shadow_map.Camera) -> dict:
-    """Values of the "OLS Light Shafts" inputs that come from the camera and the cascades."""
-    values = {"Camera Position": tuple(camera.position), "Camera Forward": tuple(camera.forward),
-              "Camera Right": tuple(camera.rotation[:, 0]), "Camera Up": tuple(camera.rotation[:, 1]),
-              "Tan Half FOV": (camera.tan_half_fov[0], camera.tan_half_fov[1], 0.0),
-              "Light Right": tuple(cascades.frame[0]), "Light Up": tuple(cascades.frame[1]),
-              "Sun Direction": tuple(cascades.frame[2]), "Far Depth": float(cascades.far_depths[-1])}
+def frame_values(cascades: shadow_map.ShadowCascades) -> dict:
+    """The "OLS Frame Values" rows that come from the cascades."""
+    values = {"Light Right": cascades.frame[0], "Light Up": cascades.frame[1],
+              "Far Depth": float(cascades.far_depths[-1])}
     biases = cascades.biases()
     for i in range(cascades.count):
         values[f"Cascade {i} Center"] = (*cascades.centers[i], cascades.far_depths[i])
         values[f"Cascade {i} Half"] = (*cascades.halves[i], biases[i])
     return values
+
+
+def camera_values(camera: shadow_map.Camera) -> dict:
+    """The "OLS Frame Values" rows that come from the camera."""
+    return {"Camera Position": camera.position, "Camera Forward": camera.forward,
+            "Camera Right": camera.rotation[:, 0], "Camera Up": camera.rotation[:, 1],
+            "Tan Half FOV": (camera.tan_half_fov[0], camera.tan_half_fov[1], 0.0)}
 
 
 def remove_images():

@@ -12,7 +12,7 @@ import bpy
 
 from ... import lut_gen
 from .. import nodes
-from . import compositor, drivers, luts, shadow_maps, skylight, sun as sun_lamps
+from . import compositor, drivers, frame_update, luts, shadow_maps, skylight, sun as sun_lamps
 
 WORLD_NAME = "OLS World"
 TERRAIN_MATERIAL = "OLS Terrain"
@@ -212,6 +212,7 @@ def refresh(scene, force=False):
         return
     sun_lamps.update_sun_colour(sun, info.origin_transmittance)
     compositor.sync_settings(scene)
+    frame_update.write_frame_values(scene)
     height = scene.camera.matrix_world.translation.z if scene.camera else 0.0
     skylight.update(info.key, info.multiple, info.params, info.dims, sun_lamps.direction_to_sun(sun), height, force)
 
@@ -219,6 +220,7 @@ def refresh(scene, force=False):
 def forget_caches():
     _bake_info.clear()
     skylight.forget()
+    frame_update.forget()
 
 
 def unwire_scene(scene):

@@ -1,0 +1,92 @@
+"""Per-frame inputs of the scattering passes: the "OLS Frame Values" image (camera, sun,
+cascade rectangles) and the shadow maps, written before each frame is composited.
+
+When (measured in bpy 5.0.1): a still render runs render_pre with the scene's depsgraph up to
+date. An animation render runs render_pre of frame f with the previous frame's state, then
+frame_change_post of f with the render's depsgraph evaluated at f; images written there are
+what the compositor of frame f reads. Both hooks call ``update_frame``; a key of everything the
+result depends on skips the repeated work (the shadow maps take about a second).
+"""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from .. import nodes
+from . import compositor, luts, shadow_maps
+
+_state = {"key": None, "geometry_changed": True, "rendering": False}
+
+
+def shafts_node(scene):
+    tree = scene.compositing_node_group
+    node = tree.nodes.get(compositor.SHAFTS_NODE) if tree is not None else None
+    return node if node is not None and node.node_tree is not None else None
+
+
+def write_frame_values(scene, depsgraph=None, cascades=None):
+    """Camera and sun (and, given, the cascades) into "OLS Frame Values"; written only when a
+    value changed (this also runs from depsgraph handlers)."""
+    image = bpy.data.images.get(compositor.FRAME_IMAGE)
+    if image is None or scene.camera is None:
+        return
+    try:
+        values = shadow_maps.camera_values(shadow_maps.camera_model(scene, depsgraph))
+        values["Sun Direction"], values["Sun Strength"] = shadow_maps.sun_state(scene, depsgraph)
+    except shadow_maps.ShadowMapError:
+        return                  # no sun or an orthographic camera: the operators report it
+    if cascades is not None:
+        values.update(shadow_maps.frame_values(cascades))
+    rows = len(nodes.frame_values.ROWS)
+    previous = None
+    if tuple(image.size) == (1, rows):
+        previous = np.empty(rows * 4, dtype=np.float32)
+        image.pixels.foreach_get(previous)
+        previous = previous.reshape(rows, 1, 4)
+    pixels = nodes.frame_values.pack(values, previous)
+    if previous is None or not np.array_equal(pixels, previous):
+        luts.write_data_image(compositor.FRAME_IMAGE, pixels)
+
+
+def _frame_key(scene, depsgraph):
+    camera = scene.camera.evaluated_get(depsgraph) if scene.camera is not None else None
+    sun, strength = shadow_maps.sun_state(scene, depsgraph)
+    settings = scene.ols
+    return (scene.frame_current, tuple(map(tuple, camera.matrix_world)) if camera else None,
+            tuple(camera.data.view_frame(scene=scene)[0]) if camera else None, tuple(sun), strength,
+            settings.shadow_map_resolution, settings.num_cascades, settings.cascade_partitioning_factor,
+            settings.enable_light_shafts, settings.enable_light_scattering,
+            scene.render.resolution_x, scene.render.resolution_y)
+
+
+def update_frame(scene, depsgraph):
+    """Shadow maps and frame values for the frame about to be composited. Raises
+    ShadowMapError (a message for the user) when the light shafts cannot run."""
+    key = _frame_key(scene, depsgraph)
+    if key == _state["key"] and not _state["geometry_changed"]:
+        return
+    node = shafts_node(scene)
+    cascades = None
+    if node is not None and not node.mute:
+        cascades = shadow_maps.render(scene, depsgraph)
+        shadow_maps.write_images(cascades)
+    write_frame_values(scene, depsgraph, cascades)
+    _state.update(key=key, geometry_changed=False)
+
+
+def note_depsgraph_update(depsgraph):
+    """Edits to geometry invalidate the shadow maps even when camera and sun stay put."""
+    if depsgraph is None or any(update.is_updated_geometry for update in depsgraph.updates):
+        _state["geometry_changed"] = True
+
+
+def set_rendering(active: bool):
+    _state["rendering"] = active
+
+
+def rendering() -> bool:
+    return _state["rendering"]
+
+
+def forget():
+    _state.update(key=None, geometry_changed=True)
