@@ -18,6 +18,7 @@ import bpy
 
 from .. import lut_gen
 from . import ops, props
+from .scene import checks
 from .scene import sun as sun_lamps
 from .scene import wiring
 
@@ -115,6 +116,8 @@ def render(scene, args):
     except OSError as exc:
         raise BatchError(f"cannot write {output}: {exc.strerror or exc}") from None
     scene.render.image_settings.file_format = "PNG"
+    for problem in checks.ensure_passes(scene) + checks.camera_problems(scene, bpy.context.evaluated_depsgraph_get()):
+        print(f"warning: {problem}", file=sys.stderr)
     if args.frames:
         try:
             start, end = (int(v) for v in args.frames.split("-"))

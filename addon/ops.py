@@ -12,7 +12,7 @@ from bpy.props import BoolProperty, EnumProperty, StringProperty
 
 from .. import lut_gen
 from . import props
-from .scene import adaptation, animation, compositor, frame_update, luts, shadow_maps, wiring
+from .scene import adaptation, animation, checks, compositor, frame_update, luts, shadow_maps, wiring
 from .scene import sun as sun_lamps
 
 RESOLUTION_ITEMS = [("default", "Default", "The sample's 32 x 128 x 64 x 16 tables (~10-20 s)"),
@@ -188,6 +188,8 @@ class OLS_OT_render(bpy.types.Operator):
         except OSError as exc:
             self.report({"ERROR"}, f"Cannot write {path}: {exc.strerror or exc}")
             return {"CANCELLED"}
+        for problem in checks.ensure_passes(scene) + checks.camera_problems(scene, context.evaluated_depsgraph_get()):
+            self.report({"WARNING"}, problem[0].upper() + problem[1:])
         previous = scene.render.filepath
         scene.render.filepath = str(path)
         try:
@@ -234,7 +236,9 @@ def _update_frame(scene, depsgraph):
         return
     try:
         wiring.match_light_shaft_layout(scene)
-        frame_update.update_frame(scene, depsgraph)
+        if frame_update.update_frame(scene, depsgraph):
+            for problem in checks.render_problems(scene, depsgraph):
+                print(f"Outdoor Light Scattering: {problem}")
     except (shadow_maps.ShadowMapError, ValueError) as exc:
         compositor.disable_light_shafts(scene)
         print(f"Outdoor Light Scattering: light shafts are off for this render: {exc}")

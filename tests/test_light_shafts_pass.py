@@ -136,3 +136,77 @@ def test_show_cascades_tints_the_terrain(addon_package, tmp_path, monkeypatch):
     bottom = ratio[-10:]                                  # near terrain: the smallest cascades
     assert np.abs(bottom - 1).max() > 0.2
     assert np.allclose(ratio[:5], 1.0, atol=1e-4)          # the sky (top rows) is not tinted
+
+
+def read_exr(path):
+    import OpenEXR
+    with OpenEXR.File(str(path)) as exr:
+        channels = exr.channels()
+        return np.asarray((channels["RGBA"] if "RGBA" in channels else channels["RGB"]).pixels[..., :3], float)
+
+
+def test_animation_frames_get_their_own_camera_sun_and_shadows(addon_package, tmp_path, monkeypatch):
+    """Compositor inputs set by handlers reach an animation render a frame late; the per-frame
+    values (camera, cascades) go through images instead. Each animation frame must equal a still
+    of that frame. (The camera moves along y only: the sky-lighting panorama follows the
+    camera's height through handlers that read the scene's original data.)"""
+    scene = low_sun_scene(addon_package, tmp_path, monkeypatch, steps=4)
+    scene.render.resolution_x, scene.render.resolution_y = 48, 27
+    scene.cycles.samples = 1
+    camera = scene.camera
+    for frame, shift in ((1, 0.0), (2, 300.0), (3, 300.0)):
+        camera.location.y += shift
+        camera.keyframe_insert("location", frame=frame)
+    scene.frame_start, scene.frame_end = 1, 3
+    scene.frame_set(1)
+    scene.render.use_compositing = True
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    scene.render.filepath = str(tmp_path / "anim_")
+    bpy.ops.render.render(animation=True)
+    for frame in (1, 2, 3):
+        scene.frame_set(frame)
+        still = render_rgb(scene, tmp_path / f"still_{frame}.exr", composite=True)
+        animated = read_exr(tmp_path / f"anim_{frame:04d}.exr")
+        np.testing.assert_allclose(animated, still, rtol=1e-4, atol=1e-6, err_msg=f"frame {frame}")
+    assert np.abs(read_exr(tmp_path / "anim_0001.exr") - read_exr(tmp_path / "anim_0002.exr")).mean() > 1e-3
+
+
+def test_bad_scenes_render_without_nan_and_say_why(addon_package, tmp_path, monkeypatch):
+    scene = low_sun_scene(addon_package, tmp_path, monkeypatch, steps=4)
+    scene.render.resolution_x, scene.render.resolution_y = 48, 27
+    scene.cycles.samples = 1
+    checks = import_module(addon_package.__name__ + ".addon.scene.checks")
+    shadow_maps = import_module(addon_package.__name__ + ".addon.scene.shadow_maps")
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    assert checks.render_problems(scene, depsgraph) == []
+    good = render_rgb(scene, tmp_path / "good.exr", composite=True)
+
+    # Shadow-map images removed (or emptied): rebuilt before the next render, same picture.
+    bpy.data.images.remove(bpy.data.images[shadow_maps.ATLAS_IMAGE])
+    again = render_rgb(scene, tmp_path / "again.exr", composite=True)
+    np.testing.assert_allclose(again, good, rtol=1e-4, atol=1e-6)
+
+    # Sun below the horizon: twilight, finite and non-negative.
+    sun_mod = import_module(addon_package.__name__ + ".addon.scene.sun")
+    sun_mod.set_sun_angles(sun_mod.find_sun(scene), -4.0, 0.0)
+    dusk = render_rgb(scene, tmp_path / "dusk.exr", composite=True)
+    assert np.isfinite(dusk).all() and dusk.min() >= 0.0 and dusk.mean() < good.mean()
+
+    # Camera inside the terrain: a message naming the terrain, and still no NaN.
+    camera = scene.camera
+    origin = camera.matrix_world.translation.copy()
+    hit, location, *_ = scene.ray_cast(bpy.context.evaluated_depsgraph_get(), origin, (0.0, 0.0, -1.0))
+    assert hit
+    camera.location.z = location.z - 10.0
+    bpy.context.view_layer.update()
+    problems = checks.render_problems(scene, bpy.context.evaluated_depsgraph_get())
+    assert any("under the surface" in p and "OLS Terrain" in p for p in problems), problems
+    inside = render_rgb(scene, tmp_path / "inside.exr", composite=True)
+    assert np.isfinite(inside).all()
+
+    # Missing passes: named, and the render operator turns them back on.
+    scene.view_layers[0].use_pass_position = False
+    assert any("Position" in p for p in checks.render_problems(scene))
+    assert bpy.ops.ols.render(filepath=str(tmp_path / "fixed.png")) == {"FINISHED"}
+    assert scene.view_layers[0].use_pass_position

@@ -59,12 +59,13 @@ def _frame_key(scene, depsgraph):
             scene.render.resolution_x, scene.render.resolution_y)
 
 
-def update_frame(scene, depsgraph):
-    """Shadow maps and frame values for the frame about to be composited. Raises
-    ShadowMapError (a message for the user) when the light shafts cannot run."""
+def update_frame(scene, depsgraph) -> bool:
+    """Shadow maps and frame values for the frame about to be composited; False when nothing
+    changed since the last call. Raises ShadowMapError (a message for the user) when the light
+    shafts cannot run."""
     key = _frame_key(scene, depsgraph)
     if key == _state["key"] and not _state["geometry_changed"]:
-        return
+        return False
     node = shafts_node(scene)
     cascades = None
     if node is not None and not node.mute:
@@ -72,6 +73,7 @@ def update_frame(scene, depsgraph):
         shadow_maps.write_images(cascades)
     write_frame_values(scene, depsgraph, cascades)
     _state.update(key=key, geometry_changed=False)
+    return True
 
 
 def note_depsgraph_update(depsgraph):

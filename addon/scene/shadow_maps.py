@@ -141,8 +141,18 @@ def camera_values(camera: shadow_map.Camera) -> dict:
             "Tan Half FOV": (camera.tan_half_fov[0], camera.tan_half_fov[1], 0.0)}
 
 
-def remove_images():
-    for name in (ATLAS_IMAGE, PARAMETER_IMAGE):
+def images_intact(shadow_test_group) -> bool:
+    """False when the shadow-map images the group reads were removed or emptied (then the
+    groups are rebuilt with new ones)."""
+    if shadow_test_group is None:
+        return False
+    images = [node.image for node in shadow_test_group.nodes if node.bl_idname == "CompositorNodeImage"]
+    return bool(images) and all(image is not None and image.size[0] > 0 and image.size[1] > 0 for image in images)
+
+
+def remove_images(*extra_names):
+    """Drop the shadow-map images (and ``extra_names``) when the scene is unwired."""
+    for name in (ATLAS_IMAGE, PARAMETER_IMAGE) + extra_names:
         image = bpy.data.images.get(name)
         if image is not None:
             bpy.data.images.remove(image)

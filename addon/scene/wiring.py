@@ -64,7 +64,8 @@ def match_light_shaft_layout(scene) -> bool:
     info = bake_info(scene)
     if group is None or info is None:
         return False
-    if group.get("ols_layout") == nodes.ShaftLayout.from_settings(scene.ols).as_key():
+    if (group.get("ols_layout") == nodes.ShaftLayout.from_settings(scene.ols).as_key()
+            and shadow_maps.images_intact(bpy.data.node_groups.get(nodes.SHADOW_TEST_GROUP))):
         return False
     build_light_shafts(scene, bpy.data.images[luts.image_name("optical_depth", info.key)], info.params)
     compositor.link_light_shafts(scene)
@@ -226,6 +227,8 @@ def forget_caches():
 def unwire_scene(scene):
     """Restore the world, materials and compositor the scene had before wiring."""
     compositor.unwire_compositor(scene)
+    if not any(other.get(WIRED_KEY) for other in bpy.data.scenes if other != scene):
+        shadow_maps.remove_images(compositor.FRAME_IMAGE)
     previous = scene.get(PREVIOUS_WORLD)
     scene.world = bpy.data.worlds.get(previous) if previous else None
     for obj in scene.objects:
