@@ -24,7 +24,13 @@ from . import aerial
 from .sampling import Luts
 from .shadow_map import CASCADE_COLORS, Camera, ShadowCascades, select_cascade, visibility
 
-SKY_DEPTH = 1e9                 # depth-pass values at or beyond this are sky (no geometry)
+SKY_DEPTH = 1e9                 # Cycles' depth pass holds 1e10 for the sky
+SKY_CLIP_FRACTION = 0.95        # EEVEE's holds about the clip end (0.987 x clip end measured)
+
+
+def sky_depth(clip_end: float) -> float:
+    """Depth-pass values at or beyond this are sky (no geometry), for either engine."""
+    return min(SKY_DEPTH, SKY_CLIP_FRACTION * clip_end)
 MIN_FORWARD_COSINE = 1e-3       # keeps the sky march length finite for rays across the view plane
 
 
@@ -48,7 +54,7 @@ class PassSettings:
 def march_ends(camera: Camera, directions, position, depth, far: float):
     """(end points (..., 3), geometry mask): the surface where there is one, else the point at
     view depth ``far`` along the pixel's ray."""
-    geometry = np.asarray(depth) < SKY_DEPTH
+    geometry = np.asarray(depth) < sky_depth(camera.clip_end)
     along = far / np.maximum(directions @ camera.forward, MIN_FORWARD_COSINE)
     sky_end = camera.position + directions * along[..., None]
     return np.where(geometry[..., None], position, sky_end), geometry

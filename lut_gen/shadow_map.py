@@ -55,10 +55,11 @@ def cascade_splits(near: float, far: float, count: int, partitioning_factor: flo
 @dataclass
 class Camera:
     """A perspective camera: position, rotation (columns: right, up, backward, as Blender's
-    matrix_world) and the tangents of the half field of view in x and y."""
+    matrix_world), the tangents of the half field of view in x and y, and the clip end."""
     position: np.ndarray
     rotation: np.ndarray
     tan_half_fov: tuple
+    clip_end: float = float("inf")
 
     @property
     def forward(self) -> np.ndarray:

@@ -3,8 +3,9 @@ and every surface: L_surface T(C->P) + (L(C) - T(C->P) L(P)) x sun strength x sc
 (eq. 8 of seed 000), the two look-ups on the same side of the horizon seam and the extinction
 from the optical-depth table. Twin: lut_gen.aerial.aerial_perspective.
 
-Inputs come from render passes (Image, Position) and drivers (camera position, sun). Pixels
-without geometry (the sky: depth beyond SKY_DEPTH) pass through unchanged.
+Inputs come from render passes (Image, Position, Depth) and "OLS Frame Values" (camera, sun). Pixels
+without geometry (the sky: depth beyond "Sky Depth", see lut_gen.scattering_pass.sky_depth)
+pass through unchanged.
 """
 from __future__ import annotations
 
@@ -13,11 +14,11 @@ from .inscattering import section_inscattering
 from .optical import point_frame, segment_transmittance
 
 GROUP_NAME = "OLS Aerial Perspective"
-SKY_DEPTH = 1e9
 INPUTS = [
     ("Image", "NodeSocketColor", (0.0, 0.0, 0.0, 1.0)),
     ("Position", "NodeSocketVector", (0.0, 0.0, 0.0)),
     ("Depth", "NodeSocketFloat", 1e10),
+    ("Sky Depth", "NodeSocketFloat", 1e9),
     ("Camera Position", "NodeSocketVector", (0.0, 0.0, 2.0)),
     ("Sun Direction", "NodeSocketVector", (0.0, 0.0, 1.0)),
     ("Sun Strength", "NodeSocketFloat", 10.0),
@@ -39,7 +40,7 @@ def build_aerial_group(optical_depth_image, params):
     air_light = g.vscale(inscatter, g.mul(gin.outputs["Sun Strength"], gin.outputs["Scattering Scale"]))
     surface = g.vscale(g.vmath("MULTIPLY", gin.outputs["Image"], transmittance), g.sub(1.0, gin.outputs["Lighting Only"]))
     seen = g.vmath("ADD", surface, air_light)
-    geometry = g.mul(g.math("LESS_THAN", gin.outputs["Depth"], SKY_DEPTH), gin.outputs["Enable"])
+    geometry = g.mul(g.math("LESS_THAN", gin.outputs["Depth"], gin.outputs["Sky Depth"]), gin.outputs["Enable"])
     result = g.vlerp(gin.outputs["Image"], seen, geometry)
     merge = g.node("CompositorNodeCombineColor")
     split = g.node("CompositorNodeSeparateColor")

@@ -18,9 +18,9 @@ MAX_CASCADES = 8
 VECTOR_ROWS = (["Camera Position", "Camera Forward", "Camera Right", "Camera Up", "Tan Half FOV", "Sun Direction",
                 "Light Right", "Light Up"]
                + [f"Cascade {i} {part}" for i in range(MAX_CASCADES) for part in ("Center", "Half")])
-SCALAR_ROW = "Strength Far"             # x: sun strength, y: far depth of the last cascade
+SCALAR_ROW = "Scalars"       # x: sun strength, y: far depth of the last cascade, z: sky depth
 ROWS = VECTOR_ROWS + [SCALAR_ROW]
-SCALARS = ("Sun Strength", "Far Depth")
+SCALARS = ("Sun Strength", "Far Depth", "Sky Depth")
 
 
 def pack(values: dict, previous=None) -> np.ndarray:
@@ -50,7 +50,6 @@ def build_frame_values_group(image):
         return g.image(image, g.vmath("ADD", zero, (0.5, (index + 0.5) / len(ROWS), 1.0)), interpolation="Closest")
     for index, name in enumerate(VECTOR_ROWS):
         g.links.new(row(index), gout.inputs[name])
-    strength, far, _ = g.separate(row(len(VECTOR_ROWS)))
-    g.links.new(strength, gout.inputs["Sun Strength"])
-    g.links.new(far, gout.inputs["Far Depth"])
+    for name, value in zip(SCALARS, g.separate(row(len(VECTOR_ROWS)))):
+        g.links.new(value, gout.inputs[name])
     return tree

@@ -26,7 +26,6 @@ from .optical import point_frame, segment_transmittance, transmittance_to_top
 GROUP_NAME = "OLS Light Shafts"
 SHADOW_TEST_GROUP = "OLS Shadow Test"
 INTEGRATION_GROUP = "OLS Integration Step"
-SKY_DEPTH = 1e9
 NEVER = 1e20                 # "no lit sample" in the first-lit minimum
 MIN_FORWARD_COSINE = 1e-3
 
@@ -170,6 +169,7 @@ MAIN_INPUTS = [
     ("Image", "NodeSocketColor", (0.0, 0.0, 0.0, 1.0)),
     ("Position", "NodeSocketVector", (0.0, 0.0, 0.0)),
     ("Depth", "NodeSocketFloat", 1e10),
+    ("Sky Depth", "NodeSocketFloat", 1e9),
     ("Camera Right", "NodeSocketVector", (1.0, 0.0, 0.0)),
     ("Camera Up", "NodeSocketVector", (0.0, 0.0, 1.0)),
     ("Tan Half FOV", "NodeSocketVector", (0.5, 0.3, 0.0)),
@@ -201,7 +201,7 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     pixel_direction = g.vmath("NORMALIZE", g.vmath("ADD", g.vmath("ADD", g.vscale(gin.outputs["Camera Right"], local[0]),
                                                                    g.vscale(gin.outputs["Camera Up"], local[1])), forward))
     along = g.div(gin.outputs["Far Depth"], g.math("MAXIMUM", g.vmath("DOT_PRODUCT", pixel_direction, forward), MIN_FORWARD_COSINE))
-    geometry = g.math("LESS_THAN", gin.outputs["Depth"], SKY_DEPTH)
+    geometry = g.math("LESS_THAN", gin.outputs["Depth"], gin.outputs["Sky Depth"])
     end = g.vlerp(g.vmath("MULTIPLY_ADD", pixel_direction, g.combine(along, along, along), camera),
                   gin.outputs["Position"], geometry)
     ray = g.vmath("SUBTRACT", end, camera)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from ...lut_gen import shadow_map
+from ...lut_gen import scattering_pass, shadow_map
 from . import luts, sun as sun_lamps
 
 ATLAS_IMAGE = "OLS Shadow Map"
@@ -38,7 +38,7 @@ def camera_model(scene, depsgraph=None) -> shadow_map.Camera:
     corners = np.array([tuple(v) for v in frame])
     depth = abs(corners[0, 2])
     tan_half = (float(np.abs(corners[:, 0]).max() / depth), float(np.abs(corners[:, 1]).max() / depth))
-    return shadow_map.Camera(np.array(matrix.translation), rotation, tan_half)
+    return shadow_map.Camera(np.array(matrix.translation), rotation, tan_half, camera.data.clip_end)
 
 
 def scene_triangles(depsgraph) -> np.ndarray:
@@ -138,7 +138,8 @@ def camera_values(camera: shadow_map.Camera) -> dict:
     """The "OLS Frame Values" rows that come from the camera."""
     return {"Camera Position": camera.position, "Camera Forward": camera.forward,
             "Camera Right": camera.rotation[:, 0], "Camera Up": camera.rotation[:, 1],
-            "Tan Half FOV": (camera.tan_half_fov[0], camera.tan_half_fov[1], 0.0)}
+            "Tan Half FOV": (camera.tan_half_fov[0], camera.tan_half_fov[1], 0.0),
+            "Sky Depth": scattering_pass.sky_depth(camera.clip_end)}
 
 
 def images_intact(shadow_test_group) -> bool:
