@@ -86,7 +86,11 @@ def test_setup_wires_aerial_perspective_and_its_controls(addon_package, tmp_path
     tree = scene.compositing_node_group
     aerial = tree.nodes["OLS Aerial Perspective"]
     assert aerial.inputs["Position"].is_linked and aerial.inputs["Depth"].is_linked
-    np.testing.assert_allclose(aerial.inputs["Camera Position"].default_value, scene.camera.matrix_world.translation)
+    # Camera and sun come per frame through the "OLS Frame Values" image (see nodes.frame_values).
+    assert aerial.inputs["Camera Position"].links[0].from_node.name == "OLS Frame Values"
+    frame_image = bpy.data.images["OLS Frame Values"]
+    pixels = np.array(frame_image.pixels[:]).reshape(frame_image.size[1], frame_image.size[0], 4)
+    np.testing.assert_allclose(pixels[0, 0, :3], scene.camera.matrix_world.translation, rtol=1e-6)
     scene.render.resolution_x, scene.render.resolution_y = 48, 27
     scene.cycles.samples = 2
     scene.cycles.seed = 5
