@@ -10,7 +10,8 @@ from pathlib import Path
 from .atmosphere import AtmosphereParams
 from .bake import RESOLUTIONS, bake
 from .cache import cached_bake, default_cache_root, key_for
-from .exr_io import LutError, check_output_directory, read_key, save
+from .aerial import MULTIPLE_MODES, SINGLE_MODES
+from .exr_io import LutError, check_output_directory, load, read_key, save
 
 EXIT_ERROR = 1
 
@@ -101,6 +102,17 @@ def build_parser() -> argparse.ArgumentParser:
     p_sample.add_argument("--luts", type=Path, default=None,
                           help=f"bake directory (default: cache under {default_cache_root()})")
     _common(p_sample)
+    p_pass = sub.add_parser("pass", help="the light-scattering pass in numpy on render passes saved to EXR")
+    p_pass.add_argument("--luts", required=True, type=Path, help="bake directory of the scene's tables")
+    p_pass.add_argument("--passes", required=True, type=Path,
+                        help="OpenEXR MultiLayer render with the Combined, Position and Depth passes")
+    p_pass.add_argument("--inputs", required=True, type=Path,
+                        help="camera, sun, shadow cascades and settings saved by the add-on (.npz)")
+    p_pass.add_argument("--out", required=True, type=Path, help="output EXR (linear RGB)")
+    p_pass.add_argument("--steps", type=int, help="override Num integration steps")
+    p_pass.add_argument("--single", choices=SINGLE_MODES, help="override the single scattering mode")
+    p_pass.add_argument("--multiple", choices=MULTIPLE_MODES, help="override the multiple scattering mode")
+    p_pass.add_argument("--no-shafts", action="store_true", help="aerial perspective only")
     return parser
 
 
@@ -134,11 +146,30 @@ def cmd_sample(args) -> int:
     return 0
 
 
+def cmd_pass(args) -> int:
+    from .exr_io import write_rgb
+    from .scattering_pass import load_inputs, load_render_passes, scattering_pass
+
+    passes = load_render_passes(args.passes)
+    camera, sun, cascades, settings = load_inputs(args.inputs)
+    overrides = {"num_integration_steps": args.steps, "single_scattering_mode": args.single,
+                 "multiple_scattering_mode": args.multiple, "enable_light_shafts": False if args.no_shafts else None}
+    settings = dataclasses.replace(settings, **{k: v for k, v in overrides.items() if v is not None})
+    if settings.num_integration_steps < 1:
+        raise ValueError(f"--steps must be at least 1, got {settings.num_integration_steps}")
+    start = time.perf_counter()
+    radiance = scattering_pass(load(args.luts), passes["image"], passes["position"], passes["depth"],
+                               camera, sun, cascades, settings)
+    write_rgb(args.out, radiance)
+    print(f"wrote {args.out} ({radiance.shape[1]}x{radiance.shape[0]}, {time.perf_counter() - start:.1f}s)")
+    return 0
+
+
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return {"bake": cmd_bake, "sample": cmd_sample}[args.command](args)
+        return {"bake": cmd_bake, "sample": cmd_sample, "pass": cmd_pass}[args.command](args)
     except (LutError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_ERROR

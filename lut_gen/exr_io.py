@@ -81,6 +81,20 @@ def _write_rgb(OpenEXR, path, rgb_top_down, strings: dict):
         exr.write(str(path))
 
 
+def write_rgb(path, rgb_bottom_up) -> Path:
+    """A linear RGB image (rows bottom to top, as Blender's) as an EXR file (atomic write)."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        _write_rgb(_openexr_or_none(), tmp, np.asarray(rgb_bottom_up)[::-1], {})
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return path
+
+
 def _require_openexr():
     try:
         import OpenEXR

@@ -101,14 +101,15 @@ PASS_CHANNELS = {"image": ("Combined", "RGB"), "position": ("Position", "XYZ"), 
 
 
 def load_render_passes(path) -> dict:
-    """Image (H, W, 3), position (H, W, 3) and depth (H, W) from a multilayer EXR saved by
-    Blender (channels "<layer>.Combined.R", "<layer>.Position.X", "<layer>.Depth.Z"), rows
-    bottom to top. ValueError naming the missing passes."""
+    """Image (H, W, 3), position (H, W, 3) and depth (H, W) from an OpenEXR MultiLayer file
+    saved by Blender (channels "<layer>.Combined.R", "<layer>.Position.X", "<layer>.Depth.Z"),
+    rows bottom to top. ValueError naming the missing passes."""
     import OpenEXR
     path = Path(path)
     try:
         with OpenEXR.File(str(path), separate_channels=True) as exr:
-            channels = {name: np.asarray(c.pixels) for name, c in exr.channels().items()}
+            # Blender writes each pass as a part of a multi-part file.
+            channels = {name: np.asarray(c.pixels) for part in exr.parts for name, c in part.channels.items()}
     except Exception as exc:  # OpenEXR raises bare RuntimeErrors for unreadable files
         raise ValueError(f"{path}: not a readable EXR file ({exc})") from exc
     result, missing = {}, []
@@ -127,3 +128,43 @@ def load_render_passes(path) -> dict:
         raise ValueError(f"{path}: missing render passes {', '.join(missing)}; enable them in the "
                          "view layer's Passes panel and save as OpenEXR MultiLayer")
     return result
+
+
+# -- pass inputs on disk: what the twin needs besides the render passes ---------------------------
+
+def save_inputs(path, camera: Camera, sun_direction, cascades: ShadowCascades, settings: PassSettings) -> Path:
+    """Camera, sun, shadow cascades and settings of a frame as one .npz (atomic write)."""
+    import dataclasses
+    import json
+    import os
+    import tempfile
+    path = Path(path)
+    arrays = dict(camera_position=camera.position, camera_rotation=camera.rotation,
+                  tan_half_fov=np.asarray(camera.tan_half_fov), clip_end=np.asarray(camera.clip_end),
+                  sun_direction=np.asarray(sun_direction, dtype=np.float64), frame=cascades.frame,
+                  centers=cascades.centers, halves=cascades.halves, far_depths=cascades.far_depths,
+                  depths=cascades.depths, settings=np.asarray(json.dumps(dataclasses.asdict(settings))))
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.savez_compressed(f, **arrays)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return path
+
+
+def load_inputs(path):
+    """(camera, sun direction, cascades, settings) saved by ``save_inputs``; ValueError for a
+    file that is not one."""
+    import json
+    try:
+        with np.load(Path(path)) as data:
+            camera = Camera(data["camera_position"], data["camera_rotation"], tuple(data["tan_half_fov"]),
+                            float(data["clip_end"]))
+            cascades = ShadowCascades(data["frame"], data["centers"], data["halves"], data["far_depths"], data["depths"])
+            settings = PassSettings(**json.loads(str(data["settings"])))
+            return camera, data["sun_direction"], cascades, settings
+    except (OSError, KeyError, ValueError, TypeError) as exc:
+        raise ValueError(f"{path}: not a pass-inputs file saved by the add-on ({exc})") from None

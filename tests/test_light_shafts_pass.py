@@ -3,13 +3,13 @@ Set Up Scene) on a small Cycles render of the sample, against its numpy twin
 lut_gen.scattering_pass fed the same render passes and the same shadow cascades: every one of
 the sample's 3 x 3 scattering modes, light shafts visibly present, Show Cascades, and the
 cases where the pass cannot run."""
+import dataclasses
 from importlib import import_module
 
 import numpy as np
 import pytest
 
 from render_util import render_rgb, save_png
-from test_aerial_pass import compositor_output
 from test_tone_mapping import sample_scene
 
 bpy = pytest.importorskip("bpy")
@@ -38,22 +38,21 @@ def low_sun_scene(pkg, tmp_path, monkeypatch, steps=16):
     return scene
 
 
-def render_passes(scene, tmp_path):
-    """Raw image, position and depth of the render (rows bottom to top, as the twin wants)."""
-    tree = scene.compositing_node_group
-    raw = render_rgb(scene, tmp_path / "raw.exr")
-    compositor_output(scene, lambda t, layers: layers.outputs["Position"])
-    position = render_rgb(scene, tmp_path / "position.exr", composite=True)
-
-    def depth_image(t, layers):
-        combine = t.nodes.new("CompositorNodeCombineColor")
-        for name in ("Red", "Green", "Blue"):
-            t.links.new(layers.outputs["Depth"], combine.inputs[name])
-        return combine.outputs["Image"]
-    compositor_output(scene, depth_image)
-    depth = render_rgb(scene, tmp_path / "depth.exr", composite=True)[..., 0]
-    scene.compositing_node_group = tree
-    return raw[::-1], position[::-1], depth[::-1]
+def render_passes(pkg, scene, tmp_path):
+    """Raw image, position and depth of the render, saved as OpenEXR MultiLayer and read back
+    with the twin's loader (rows bottom to top)."""
+    settings = scene.render.image_settings
+    scene.render.use_compositing = False
+    settings.media_type = "MULTI_LAYER_IMAGE"
+    settings.file_format = "OPEN_EXR_MULTILAYER"
+    settings.color_depth = "32"
+    scene.render.filepath = str(tmp_path / "passes.exr")
+    try:
+        bpy.ops.render.render(write_still=True)
+    finally:
+        settings.media_type = "IMAGE"
+    passes = pkg.lut_gen.scattering_pass.load_render_passes(tmp_path / "passes.exr")
+    return passes["image"], passes["position"], passes["depth"]
 
 
 class Twin:
@@ -72,13 +71,10 @@ class Twin:
         return self.shadow_maps.render(self.scene, bpy.context.evaluated_depsgraph_get())
 
     def __call__(self, **overrides):
-        settings = self.scene.ols
-        fields = self.pkg.lut_gen.scattering_pass.PassSettings.__dataclass_fields__
-        values = {name: getattr(settings, name) for name in fields if hasattr(settings, name)}
-        values.update(sun_strength=10.0, **overrides)
-        pass_settings = self.pkg.lut_gen.scattering_pass.PassSettings(**values)
+        frame_update = import_module(self.pkg.__name__ + ".addon.scene.frame_update")
+        settings = dataclasses.replace(frame_update.pass_settings(self.scene, 10.0), **overrides)
         return self.pkg.lut_gen.scattering_pass.scattering_pass(
-            self.luts, *self.passes, self.camera, self.sun, self.cascades(), pass_settings)
+            self.luts, *self.passes, self.camera, self.sun, self.cascades(), settings)
 
 
 def relative_error(seen, twin):
@@ -87,7 +83,7 @@ def relative_error(seen, twin):
 
 def test_every_scattering_mode_matches_the_twin_and_shafts_show(addon_package, tmp_path, monkeypatch):
     scene = low_sun_scene(addon_package, tmp_path, monkeypatch)
-    passes = render_passes(scene, tmp_path)
+    passes = render_passes(addon_package, scene, tmp_path)
     raw, position, depth = passes
     geometry = depth < 1e9
     assert 0.2 < geometry.mean() < 0.9                        # terrain and sky in view
@@ -106,6 +102,15 @@ def test_every_scattering_mode_matches_the_twin_and_shafts_show(addon_package, t
             shadow_effect = unshadowed - expected
     print("median relative error per mode:", errors)
     assert max(errors.values()) <= 0.03, errors
+    # The same pass from the command line, on the passes saved to EXR and the saved inputs.
+    frame_update = import_module(addon_package.__name__ + ".addon.scene.frame_update")
+    frame_update.export_pass_inputs(scene, tmp_path / "inputs.npz")
+    cli = import_module(addon_package.__name__ + ".lut_gen.cli")
+    luts_dir = import_module(addon_package.__name__ + ".addon.ops").bake_if_needed(addon_package.lut_gen.AtmosphereParams(), "draft")
+    assert cli.main(["pass", "--luts", str(luts_dir), "--passes", str(tmp_path / "passes.exr"),
+                     "--inputs", str(tmp_path / "inputs.npz"), "--out", str(tmp_path / "cli.exr")]) == 0
+    from_cli = read_exr(tmp_path / "cli.exr")[::-1]
+    np.testing.assert_allclose(from_cli, expected, rtol=1e-5, atol=1e-7)
     # Light shafts are present: the ridge's shadow takes light out of the air over the valley
     # and in the sky around the sun, unevenly across the columns of the image.
     darker = shadow_effect.sum(axis=-1)
@@ -205,8 +210,11 @@ def test_bad_scenes_render_without_nan_and_say_why(addon_package, tmp_path, monk
     inside = render_rgb(scene, tmp_path / "inside.exr", composite=True)
     assert np.isfinite(inside).all()
 
-    # Missing passes: named, and the render operator turns them back on.
+    # Missing passes: named (by the checks and by the twin's EXR loader), and the render
+    # operator turns them back on.
     scene.view_layers[0].use_pass_position = False
     assert any("Position" in p for p in checks.render_problems(scene))
+    with pytest.raises(ValueError, match="missing render passes Position"):
+        render_passes(addon_package, scene, tmp_path)
     assert bpy.ops.ols.render(filepath=str(tmp_path / "fixed.png")) == {"FINISHED"}
     assert scene.view_layers[0].use_pass_position
