@@ -37,6 +37,22 @@ def below_first_row_factors(params: AtmosphereParams, height_m, n_heights: int) 
                      np.ones_like(below)], axis=-1)
 
 
+def horizon_safe_cos(params: AtmosphereParams, height_m, cos_zenith, n_heights: int, n_cos: int) -> np.ndarray:
+    """The zenith cosine to read the optical-depth table at: for rays above the horizon, at
+    least the first cos node above the horizon of the lower height row the look-up blends.
+    Filtering otherwise mixes the EARTH_HIT_NET_DENSITY texels just below the horizon into rays
+    just above it (transmittance 0 for rays within a texel, 0.002 in cosine, of grazing: a dark
+    or bright line along the horizon). Rays that hit the Earth keep their cosine."""
+    height = np.asarray(height_m, dtype=np.float64)
+    cos_zenith = np.asarray(cos_zenith, dtype=np.float64)
+    row = np.maximum(np.floor(height / params.atmosphere_height * n_heights - 0.5), 0.0)
+    lower_row_height = (row + 0.5) * params.atmosphere_height / n_heights
+    node = np.ceil((par.cos_horizon(lower_row_height, params.earth_radius) * 0.5 + 0.5) * n_cos - 0.5)
+    first_node_above = (node + 0.5) / n_cos * 2.0 - 1.0
+    above = cos_zenith >= par.cos_horizon(height, params.earth_radius)
+    return np.where(above, np.maximum(cos_zenith, first_node_above), cos_zenith)
+
+
 @dataclass
 class Luts:
     """Tables of one bake.
@@ -85,7 +101,8 @@ class Luts:
         n_h, n_c = self.optical_depth.shape[:2]
         height = np.asarray(height_m, dtype=np.float64)
         xh = par.unit_to_centre_x(height / self.params.atmosphere_height, n_h)
-        xc = par.unit_to_centre_x(np.asarray(cos_zenith) * 0.5 + 0.5, n_c)
+        cos_zenith = horizon_safe_cos(self.params, height, cos_zenith, n_h, n_c)
+        xc = par.unit_to_centre_x(cos_zenith * 0.5 + 0.5, n_c)
         net = interpolate(self.optical_depth, (xh, xc)).astype(np.float64)
         return net * below_first_row_factors(self.params, height, n_h)
 

@@ -116,3 +116,42 @@ def test_aerial_perspective_attenuates_and_adds_air_light(default_luts):
     seen = aerial.aerial_perspective(default_luts, CAMERA, points, surface, SUN, sun_strength=10.0, scattering_scale=0.5)
     t = aerial.segment_transmittance(default_luts, CAMERA, points)
     assert np.all(seen >= surface * t) and np.all(t < 1)
+
+
+def horizon_sweep(distance, offsets=np.linspace(-0.0015, 0.01, 47), height=40.0):
+    """A camera ``height`` m up and points ``distance`` away along rays whose zenith cosines
+    lie ``offsets`` from the camera's horizon (its eye level in a render)."""
+    camera = np.array([0.0, 0.0, height])
+    c = -np.sqrt(height * (2 * P.earth_radius + height)) / (P.earth_radius + height) + offsets
+    rays = np.stack([np.zeros_like(c), np.sqrt(1 - c * c), c], -1)
+    return camera, camera + rays * distance
+
+
+@pytest.mark.parametrize("distance", [1500.0, 8000.0, 30000.0])
+def test_segments_along_the_horizon_keep_their_extinction(default_luts, distance):
+    """Table rays just above the horizon used to mix in the Earth-hit marker (transmittance 0:
+    a bright line along the horizon), then to lose the difference (transmittance 1); the
+    table look-up now stays above the horizon and grazing segments are integrated."""
+    camera, points = horizon_sweep(distance)
+    want = exact_transmittance(camera[None, :], points)
+    got = aerial.segment_transmittance(default_luts, camera, points)
+    assert np.abs(got - want).max() < 0.01
+
+
+@pytest.mark.parametrize("distance", [3000.0, 8000.0, 30000.0])
+def test_inscattering_has_no_step_at_the_horizon(default_luts, distance):
+    """Eq. (8) across the camera's horizon: within 10% of the brute-force segment integral and
+    no jump between neighbouring rays (the two sides of the table's horizon seam disagree by
+    about 15% near the ground; the blend hides it)."""
+    camera, points = horizon_sweep(distance)
+    points = points[points[:, 2] > 0.0]                   # no segments into the ground
+    sun = np.array([0.9, 0.2, 0.35]) / np.linalg.norm([0.9, 0.2, 0.35])     # off the Mie peak (see README)
+    got = aerial.segment_inscattering(default_luts, camera, points, sun, table="single")
+    truth = aerial.light_shafts(default_luts, np.broadcast_to(camera, points.shape), points, sun,
+                                lambda p: np.ones(p.shape[:-1]), steps=300, single_mode="INTEGRATION",
+                                multiple_mode="NONE")
+    error = np.abs(got - truth) / truth
+    steps = np.abs(np.diff(got, axis=0)) / got.mean(axis=0)
+    print(f"{distance:.0f} m: max error {error.max():.3f}, median {np.median(error):.3f}, max step {steps.max():.4f}")
+    assert np.median(error) < 0.05 and error.max() < 0.1
+    assert steps.max() < 0.03

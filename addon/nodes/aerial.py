@@ -10,8 +10,8 @@ pass through unchanged.
 from __future__ import annotations
 
 from .builder import group_io, new_group
-from .inscattering import section_inscattering
-from .optical import point_frame, segment_transmittance
+from .inscattering import section_node
+from .optical import segment_transmittance_node
 
 GROUP_NAME = "OLS Aerial Perspective"
 INPUTS = [
@@ -34,9 +34,8 @@ def build_aerial_group(optical_depth_image, params):
     camera, point = gin.outputs["Camera Position"], gin.outputs["Position"]
     sun = g.vmath("NORMALIZE", gin.outputs["Sun Direction"])
     view = g.vmath("NORMALIZE", g.vmath("SUBTRACT", point, camera))
-    transmittance = segment_transmittance(g, optical_depth_image, point_frame(g, camera, params),
-                                          point_frame(g, point, params), view, params)
-    inscatter = section_inscattering(g, "multiple", camera, point, view, sun, None, transmittance, params)
+    transmittance = segment_transmittance_node(g, camera, point, view)
+    inscatter = section_node(g, "multiple", camera, point, view, sun, None, transmittance)
     air_light = g.vscale(inscatter, g.mul(gin.outputs["Sun Strength"], gin.outputs["Scattering Scale"]))
     surface = g.vscale(g.vmath("MULTIPLY", gin.outputs["Image"], transmittance), g.sub(1.0, gin.outputs["Lighting Only"]))
     seen = g.vmath("ADD", surface, air_light)

@@ -22,7 +22,8 @@ class Graph:
         node = self.nodes.new(kind)
         for name, value in props.items():
             setattr(node, name, value)
-        node.location = (self._column * 40.0, -(len(self.nodes) % 12) * 60.0)
+        # A running count: len(tree.nodes) walks the whole list (quadratic in big groups).
+        node.location = (self._column * 40.0, -(self._column % 12) * 60.0)
         self._column += 1
         return node
 
@@ -92,6 +93,14 @@ class Graph:
         self.feed(node.inputs[0], vector)
         self.feed(node.inputs["Scale"], scale)
         return node.outputs["Vector"]
+
+    def group(self, tree, **inputs):
+        """A node of the group ``tree`` (same kind of tree) with its inputs fed; returns its outputs."""
+        node = self.node("CompositorNodeGroup" if self.tree.bl_idname == "CompositorNodeTree" else "ShaderNodeGroup")
+        node.node_tree = tree
+        for name, value in inputs.items():
+            self.feed(node.inputs[name.replace("_", " ").title()], value)
+        return node.outputs
 
     def image(self, image: bpy.types.Image, uv, interpolation: str = "Linear"):
         """Colour of ``image`` at texture coordinates ``uv`` (Linear or Closest filtering, edges

@@ -3,8 +3,9 @@ section start -> end, T(C->start) L(start) - T(C->end) L(end), both look-ups on 
 horizon seam the first one chose (Listing 2). Twin: lut_gen.aerial._eq8."""
 from __future__ import annotations
 
+from ...lut_gen.aerial import HORIZON_BLEND, HORIZON_BLEND_HEIGHT
 from .lookup import COMPOSITOR_GROUP_NAME
-from .optical import point_frame
+from .optical import horizon_cos, point_frame
 
 
 def lookup_group_name(table: str) -> str:
@@ -29,11 +30,63 @@ def look_up(g, table, point_frame_, direction, sun, forced=None):
     return node.outputs["Radiance"], node.outputs["Above Horizon"]
 
 
+def section_group_name(table: str) -> str:
+    return f"OLS Section Scattering ({table})"
+
+
+def build_section_group(table, params):
+    """"OLS Section Scattering (<table>)": eq. (8) over a ray section as a shared group."""
+    from .builder import group_io, new_group
+    tree = new_group(section_group_name(table), "CompositorNodeTree")
+    inputs = ([(name, "NodeSocketVector", (0.0, 0.0, 0.0)) for name in ("Start", "End", "Direction", "Sun Direction")]
+              + [(name, "NodeSocketVector", (1.0, 1.0, 1.0)) for name in ("Start Transmittance", "End Transmittance")])
+    g, gin, gout = group_io(tree, inputs, [("Radiance", "NodeSocketVector", None)])
+    o = gin.outputs
+    g.links.new(section_inscattering(g, table, o["Start"], o["End"], o["Direction"], o["Sun Direction"],
+                                     o["Start Transmittance"], o["End Transmittance"], params), gout.inputs["Radiance"])
+    return tree
+
+
+def section_node(g, table, start, end, direction, sun, start_transmittance, end_transmittance):
+    """Eq. (8) start -> end through an "OLS Section Scattering (<table>)" node."""
+    import bpy
+    return g.group(bpy.data.node_groups[section_group_name(table)], start=start, end=end, direction=direction,
+                   sun_direction=sun, start_transmittance=start_transmittance,
+                   end_transmittance=end_transmittance)["Radiance"]
+
+
 def section_inscattering(g, table, start, end, direction, sun, start_transmittance, end_transmittance, params):
-    """max(T_start L(start) - T_end L(end), 0) for world points ``start`` and ``end``."""
-    near, above = look_up(g, table, point_frame(g, start, params), direction, sun)
-    far, _ = look_up(g, table, point_frame(g, end, params), direction, sun, forced=above)
-    if start_transmittance is not None:
-        near = g.vmath("MULTIPLY", start_transmittance, near)
-    difference = g.vmath("SUBTRACT", near, g.vmath("MULTIPLY", end_transmittance, far))
-    return g.vmath("MAXIMUM", difference, (0.0, 0.0, 0.0))
+    """max(T_start L(start) - T_end L(end), 0) for world points ``start`` and ``end``; within
+    HORIZON_BLEND of the start's horizon (narrowed for long sections), the blend of eq. (8) along
+    the rays just below and just above the horizon (Bruneton's fix for the step the seam draws;
+    twin: lut_gen.aerial._eq8)."""
+    start_frame = point_frame(g, start, params)
+    height, up = start_frame
+
+    def eq8(view, end_point, forced=None):
+        near, above = look_up(g, table, start_frame, view, sun, forced)
+        far, _ = look_up(g, table, point_frame(g, end_point, params), view, sun, above if forced is None else forced)
+        if start_transmittance is not None:
+            near = g.vmath("MULTIPLY", start_transmittance, near)
+        return g.vmath("MAXIMUM", g.vmath("SUBTRACT", near, g.vmath("MULTIPLY", end_transmittance, far)), (0.0, 0.0, 0.0))
+
+    plain = eq8(direction, end)
+    c_h = horizon_cos(g, height, params)
+    offset = g.sub(g.vmath("DOT_PRODUCT", direction, up), c_h)
+    length = g.vmath("LENGTH", g.vmath("SUBTRACT", end, start))
+    half_width = g.math("MINIMUM", g.div(HORIZON_BLEND_HEIGHT, g.math("MAXIMUM", length, 1e-9)), HORIZON_BLEND)
+    sides = []
+    for side in (-1.0, 1.0):
+        tilted = tilted_direction(g, up, direction, g.mul_add(half_width, side, c_h))
+        tilted_end = g.vmath("MULTIPLY_ADD", tilted, g.combine(length, length, length), start)
+        sides.append(eq8(tilted, tilted_end, forced=1.0 if side > 0 else 0.0))
+    weight = g.clamp(g.div(g.add(offset, half_width), g.mul(half_width, 2.0)), 0.0, 1.0)
+    in_band = g.math("LESS_THAN", g.math("ABSOLUTE", offset), half_width)
+    return g.vlerp(plain, g.vlerp(sides[0], sides[1], weight), in_band)
+
+
+def tilted_direction(g, up, direction, cos_zenith):
+    """``direction`` turned in its vertical plane to the zenith cosine ``cos_zenith``."""
+    level = g.vmath("NORMALIZE", g.vmath("SUBTRACT", direction, g.vscale(up, g.vmath("DOT_PRODUCT", up, direction))))
+    sine = g.math("SQRT", g.math("MAXIMUM", g.sub(1.0, g.mul(cos_zenith, cos_zenith)), 0.0))
+    return g.vmath("ADD", g.vscale(up, cos_zenith), g.vscale(level, sine))

@@ -15,13 +15,15 @@ else (camera, sun, cascade rectangles, first cascade, show cascades) arrives as 
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ...lut_gen import shadow_map
 from ...lut_gen.atmosphere import RAYLEIGH_PHASE_NORM
 from .builder import group_io, new_group
-from .inscattering import section_inscattering
-from .optical import point_frame, segment_transmittance, transmittance_to_top
+from .inscattering import section_node
+from .optical import (ozone_density, point_frame, segment_transmittance_node, transmittance_from_net_density,
+                      transmittance_to_top)
 
 GROUP_NAME = "OLS Light Shafts"
 SHADOW_TEST_GROUP = "OLS Shadow Test"
@@ -136,30 +138,35 @@ def build_shadow_test_group(layout: ShaftLayout, atlas_image, parameter_image):
 
 def build_integration_group(optical_image, params):
     """"OLS Integration Step": single scattering of one march step, sigma_s P(theta) T(C->X)
-    T_sun(X) x lit x step (the sample's "Singl sctr: integration"). Twin: the INTEGRATION
-    branch of lut_gen.aerial.light_shafts."""
+    T_sun(X) x lit x step (the sample's "Singl sctr: integration"), with the extinction from the
+    camera accumulated step by step (net densities in and out, midpoint rule). Twin: the
+    INTEGRATION branch of lut_gen.aerial.light_shafts."""
     tree = new_group(INTEGRATION_GROUP, "CompositorNodeTree")
-    inputs = [("Camera Position", "NodeSocketVector", (0.0, 0.0, 2.0)), ("Point", "NodeSocketVector", (0.0, 0.0, 0.0)),
-              ("Direction", "NodeSocketVector", (0.0, 1.0, 0.0)), ("Sun Direction", "NodeSocketVector", (0.0, 0.0, 1.0)),
-              ("Lit", "NodeSocketFloat", 1.0), ("Step", "NodeSocketFloat", 1.0)]
-    g, gin, gout = group_io(tree, inputs, [("Radiance", "NodeSocketVector", None)])
-    point, direction, sun = gin.outputs["Point"], gin.outputs["Direction"], gin.outputs["Sun Direction"]
-    height, up = frame = point_frame(g, point, params)
+    inputs = [("Point", "NodeSocketVector", (0.0, 0.0, 0.0)), ("Direction", "NodeSocketVector", (0.0, 1.0, 0.0)),
+              ("Sun Direction", "NodeSocketVector", (0.0, 0.0, 1.0)), ("Lit", "NodeSocketFloat", 1.0),
+              ("Step", "NodeSocketFloat", 1.0), ("Net Density Before", "NodeSocketVector", (0.0, 0.0, 0.0))]
+    g, gin, gout = group_io(tree, inputs, [("Radiance", "NodeSocketVector", None),
+                                           ("Net Density After", "NodeSocketVector", None)])
+    point, direction, sun, step = (gin.outputs[n] for n in ("Point", "Direction", "Sun Direction", "Step"))
+    height, up = point_frame(g, point, params)
     sun_transmittance = transmittance_to_top(g, optical_image, height, g.vmath("DOT_PRODUCT", up, sun), params)
-    view_transmittance = segment_transmittance(g, optical_image, point_frame(g, gin.outputs["Camera Position"], params),
-                                               frame, direction, params)
+    rho_r = g.math("EXPONENT", g.div(height, -params.rayleigh_scale_height))
+    rho_m = g.math("EXPONENT", g.div(height, -params.mie_scale_height))
+    step_density = g.vscale(g.combine(rho_r, rho_m, ozone_density(g, height)), step)
+    before = gin.outputs["Net Density Before"]
+    g.links.new(g.vmath("ADD", before, step_density), gout.inputs["Net Density After"])
+    view_transmittance = transmittance_from_net_density(
+        g, *g.separate(g.vmath("MULTIPLY_ADD", step_density, (0.5, 0.5, 0.5), before)), params)
     cos_theta = g.vmath("DOT_PRODUCT", direction, sun)
     one_plus_c2 = g.mul_add(cos_theta, cos_theta, 1.0)
     rayleigh_phase = g.mul(one_plus_c2, RAYLEIGH_PHASE_NORM)
     mie_g = params.mie_g
-    mie_norm = 3.0 / (8.0 * 3.141592653589793) * (1.0 - mie_g ** 2) / (2.0 + mie_g ** 2)
+    mie_norm = 3.0 / (8.0 * math.pi) * (1.0 - mie_g ** 2) / (2.0 + mie_g ** 2)
     mie_phase = g.div(g.mul(one_plus_c2, mie_norm),
                       g.math("POWER", g.mul_add(cos_theta, -2.0 * mie_g, 1.0 + mie_g ** 2), 1.5))
-    rho_r = g.math("EXPONENT", g.div(height, -params.rayleigh_scale_height))
-    rho_m = g.math("EXPONENT", g.div(height, -params.mie_scale_height))
     scattering = g.vmath("ADD", g.vscale(tuple(params.rayleigh), g.mul(rho_r, rayleigh_phase)),
                          g.vscale(tuple(params.mie), g.mul(rho_m, mie_phase)))
-    weight = g.mul(gin.outputs["Lit"], gin.outputs["Step"])
+    weight = g.mul(gin.outputs["Lit"], step)
     radiance = g.vscale(g.vmath("MULTIPLY", g.vmath("MULTIPLY", scattering, view_transmittance), sun_transmittance), weight)
     g.links.new(radiance, gout.inputs["Radiance"])
     return tree
@@ -217,7 +224,7 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
             g.links.new(gin.outputs[name], node.inputs[name])
         return node
 
-    lit_length, first_lit, integrated = 0.0, NEVER, None
+    lit_length, first_lit, integrated, net_density = 0.0, NEVER, None, (0.0, 0.0, 0.0)
     for i in range(layout.steps):
         t = g.mul(step, i + 0.5)
         point = g.vmath("MULTIPLY_ADD", direction, g.combine(t, t, t), camera)
@@ -228,17 +235,16 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
         if layout.single_mode == "INTEGRATION":
             node = g.node("CompositorNodeGroup")
             node.node_tree = integration
-            for name, value in (("Camera Position", camera), ("Point", point), ("Direction", direction),
-                                ("Sun Direction", sun), ("Lit", lit), ("Step", step)):
+            for name, value in (("Point", point), ("Direction", direction), ("Sun Direction", sun), ("Lit", lit),
+                                ("Step", step), ("Net Density Before", net_density)):
                 g.feed(node.inputs[name], value)
+            net_density = node.outputs["Net Density After"]
             integrated = node.outputs["Radiance"] if integrated is None else g.vmath("ADD", integrated, node.outputs["Radiance"])
     lit_length = g.mul(lit_length, step)
     first_lit = g.math("MINIMUM", first_lit, length)
 
-    camera_frame = point_frame(g, camera, params)
-
     def transmittance_to(point):
-        return segment_transmittance(g, optical_image, camera_frame, point_frame(g, point, params), direction, params)
+        return segment_transmittance_node(g, camera, point, direction)
 
     lit_start = g.vmath("MULTIPLY_ADD", direction, g.combine(first_lit, first_lit, first_lit), camera)
     lit_end = g.vmath("MULTIPLY_ADD", direction, g.combine(lit_length, lit_length, lit_length), lit_start)
@@ -246,8 +252,8 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     end_transmittance = transmittance_to(end)
 
     def lit_section(table):
-        radiance = section_inscattering(g, table, lit_start, lit_end, direction, sun, transmittance_to(lit_start),
-                                        transmittance_to(lit_end), params)
+        radiance = section_node(g, table, lit_start, lit_end, direction, sun, transmittance_to(lit_start),
+                                transmittance_to(lit_end))
         return g.vscale(radiance, has_lit)
 
     terms = []
@@ -258,11 +264,11 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     if layout.multiple_mode == "OCCLUDED" and layout.single_mode != "LUT":
         terms.append(lit_section("higher"))
     if layout.multiple_mode == "UNOCCLUDED":
-        terms.append(section_inscattering(g, "higher", camera, end, direction, sun, None, end_transmittance, params))
+        terms.append(section_node(g, "higher", camera, end, direction, sun, None, end_transmittance))
     shadowed = (0.0, 0.0, 0.0)
     for term in terms:
         shadowed = g.vmath("ADD", shadowed, term)
-    unshadowed = section_inscattering(g, "multiple", camera, end, direction, sun, None, end_transmittance, params)
+    unshadowed = section_node(g, "multiple", camera, end, direction, sun, None, end_transmittance)
     scale = g.mul(g.mul(gin.outputs["Sun Strength"], gin.outputs["Scattering Scale"]), gin.outputs["Enable"])
     result = g.vmath("MULTIPLY_ADD", g.vmath("SUBTRACT", shadowed, unshadowed), g.combine(scale, scale, scale),
                      gin.outputs["Image"])

@@ -3,6 +3,9 @@ groups (the sample's texture coordinates: (h / H_atm, c * 0.5 + 0.5) and (c * 0.
 coordinates carry z = 1: the compositor's Map UV reads z as alpha."""
 from __future__ import annotations
 
+from ...lut_gen import aerial as aerial_twin
+from ...lut_gen.atmosphere import OZONE_HALF_WIDTH_M, OZONE_PEAK_HEIGHT_M
+
 
 def point_frame(g, point, params):
     """(height above the ground, local up) of a world point; the Earth centre is at (0, 0, -R).
@@ -19,6 +22,7 @@ def net_density_to_top(g, image, height, cos_zenith, params):
     """(Rayleigh, Mie, ozone) net densities to the top (1e20 where the ray hits the Earth);
     below the table's first row the Rayleigh and Mie columns are scaled by exp(dh / H), as in
     the twin, lut_gen.Luts.net_density_to_top."""
+    cos_zenith = horizon_safe_cos(g, height, cos_zenith, image.size[0], image.size[1], params)
     uv = g.combine(g.div(height, params.atmosphere_height), g.mul_add(cos_zenith, 0.5, 0.5), 1.0)
     rayleigh, mie, ozone = g.separate(g.image(image, uv))
     first_row = params.atmosphere_height / (2 * image.size[0])
@@ -26,6 +30,24 @@ def net_density_to_top(g, image, height, cos_zenith, params):
     rayleigh = g.mul(rayleigh, g.math("EXPONENT", g.div(below, params.rayleigh_scale_height)))
     mie = g.mul(mie, g.math("EXPONENT", g.div(below, params.mie_scale_height)))
     return rayleigh, mie, ozone
+
+
+def horizon_cos(g, height, params):
+    """c_h = -sqrt(h (2R + h)) / (R + h), the zenith cosine of the horizon from height h."""
+    return g.mul(-1.0, g.div(g.math("SQRT", g.mul(height, g.add(height, 2 * params.earth_radius))),
+                             g.add(height, params.earth_radius)))
+
+
+def horizon_safe_cos(g, height, cos_zenith, n_heights, n_cos, params):
+    """Rays above the horizon read the table at least at the first cos node above the horizon
+    of the lower height row the filter blends, so no Earth-hit texel (1e20) leaks into them.
+    Twin: lut_gen.sampling.horizon_safe_cos."""
+    row = g.math("MAXIMUM", g.math("FLOOR", g.mul_add(height, n_heights / params.atmosphere_height, -0.5)), 0.0)
+    lower_row_height = g.mul(g.add(row, 0.5), params.atmosphere_height / n_heights)
+    node = g.math("CEIL", g.mul_add(g.mul_add(horizon_cos(g, lower_row_height, params), 0.5, 0.5), n_cos, -0.5))
+    first_node_above = g.mul_add(g.add(node, 0.5), 2.0 / n_cos, -1.0)
+    above = g.math("GREATER_THAN", cos_zenith, horizon_cos(g, height, params))
+    return g.lerp(cos_zenith, g.math("MAXIMUM", cos_zenith, first_node_above), above)
 
 
 def transmittance_from_net_density(g, rayleigh, mie, ozone, params):
@@ -50,24 +72,72 @@ def ambient_skylight(g, image, cos_sun_zenith):
 
 def below_horizon(g, height, cos_view, params):
     """1 where a ray from ``height`` with zenith cosine ``cos_view`` runs into the Earth."""
-    c_h = g.mul(-1.0, g.div(g.math("SQRT", g.mul(height, g.add(height, 2 * params.earth_radius))),
-                            g.add(height, params.earth_radius)))
-    return g.math("LESS_THAN", cos_view, c_h)
+    return g.math("LESS_THAN", cos_view, horizon_cos(g, height, params))
 
 
-def segment_transmittance(g, image, start_frame, end_frame, direction, params):
-    """Transmittance between two points given as (height, up) frames, ``direction`` the unit
-    vector from start to end: net density to the top from the start minus from the end, along
-    the reversed ray where the forward one from either end runs into the ground (the table
-    holds 1e20 there). Twin: lut_gen.aerial.segment_transmittance."""
-    (h_s, up_s), (h_e, up_e) = start_frame, end_frame
+SEGMENT_GROUP = "OLS Segment Transmittance"
+
+
+def build_segment_transmittance_group(image, params):
+    """"OLS Segment Transmittance" (compositor): the transmittance between two world points,
+    shared by the scattering groups (a big tree of its own; node trees grow slow to edit)."""
+    from .builder import group_io, new_group
+    tree = new_group(SEGMENT_GROUP, "CompositorNodeTree")
+    inputs = [(name, "NodeSocketVector", (0.0, 0.0, 0.0)) for name in ("Start", "End", "Direction")]
+    g, gin, gout = group_io(tree, inputs, [("Transmittance", "NodeSocketVector", None)])
+    g.links.new(segment_transmittance(g, image, gin.outputs["Start"], gin.outputs["End"], gin.outputs["Direction"], params),
+                gout.inputs["Transmittance"])
+    return tree
+
+
+def segment_transmittance_node(g, start, end, direction):
+    """The transmittance start -> end through an "OLS Segment Transmittance" node."""
+    import bpy
+    return g.group(bpy.data.node_groups[SEGMENT_GROUP], start=start, end=end, direction=direction)["Transmittance"]
+
+
+def segment_transmittance(g, image, start, end, direction, params):
+    """Transmittance between world points ``start`` and ``end``, ``direction`` the unit vector
+    from one to the other: net density to the top from the start minus from the end, along the
+    reversed ray where the forward one from either end runs into the ground (the table holds
+    1e20 there); for rays grazing the horizon, where that difference is ill-conditioned, an
+    8-point Gauss-Legendre sum of the densities along the segment (blended over
+    QUADRATURE_BAND). Twin: lut_gen.aerial.segment_transmittance."""
+    (h_s, up_s), (h_e, up_e) = point_frame(g, start, params), point_frame(g, end, params)
     reverse = g.vscale(direction, -1.0)
     cos_s, cos_e = g.vmath("DOT_PRODUCT", direction, up_s), g.vmath("DOT_PRODUCT", direction, up_e)
+    cos_back_e = g.vmath("DOT_PRODUCT", reverse, up_e)
     forward_s = net_density_to_top(g, image, h_s, cos_s, params)
     forward_e = net_density_to_top(g, image, h_e, cos_e, params)
-    backward_e = net_density_to_top(g, image, h_e, g.vmath("DOT_PRODUCT", reverse, up_e), params)
+    backward_e = net_density_to_top(g, image, h_e, cos_back_e, params)
     backward_s = net_density_to_top(g, image, h_s, g.vmath("DOT_PRODUCT", reverse, up_s), params)
     hits = g.math("MAXIMUM", below_horizon(g, h_s, cos_s, params), below_horizon(g, h_e, cos_e, params))
-    net = [g.math("MAXIMUM", g.lerp(g.sub(fs, fe), g.sub(be, bs), hits), 0.0)
-           for fs, fe, be, bs in zip(forward_s, forward_e, backward_e, backward_s)]
+    table = [g.lerp(g.sub(fs, fe), g.sub(be, bs), hits)
+             for fs, fe, be, bs in zip(forward_s, forward_e, backward_e, backward_s)]
+    horizon = g.lerp(g.sub(cos_s, horizon_cos(g, h_s, params)), g.sub(cos_back_e, horizon_cos(g, h_e, params)), hits)
+    low, high = aerial_twin.QUADRATURE_BAND
+    weight = g.node("ShaderNodeMapRange", interpolation_type="SMOOTHSTEP")
+    for name, value in (("Value", horizon), ("From Min", low), ("From Max", high), ("To Min", 0.0), ("To Max", 1.0)):
+        g.feed(weight.inputs[name], value)
+    quadrature = quadrature_net_density(g, start, end, params)
+    net = [g.math("MAXIMUM", g.lerp(q, t, weight.outputs["Result"]), 0.0) for q, t in zip(quadrature, table)]
     return transmittance_from_net_density(g, *net, params)
+
+
+def quadrature_net_density(g, start, end, params):
+    """(Rayleigh, Mie, ozone) net densities along start -> end, 8-point Gauss-Legendre.
+    Twin: lut_gen.aerial.quadrature_net_density."""
+    segment = g.vmath("SUBTRACT", end, start)
+    half_length = g.mul(g.vmath("LENGTH", segment), 0.5)
+    sums = [0.0, 0.0, 0.0]
+    for node, weight in zip(aerial_twin.GAUSS_NODES, aerial_twin.GAUSS_WEIGHTS):
+        height, _ = point_frame(g, g.vmath("MULTIPLY_ADD", segment, (0.5 * (node + 1.0),) * 3, start), params)
+        rayleigh = g.math("EXPONENT", g.div(height, -params.rayleigh_scale_height))
+        mie = g.math("EXPONENT", g.div(height, -params.mie_scale_height))
+        sums = [g.mul_add(d, float(weight), acc) for d, acc in zip((rayleigh, mie, ozone_density(g, height)), sums)]
+    return [g.mul(total, half_length) for total in sums]
+
+
+def ozone_density(g, height):
+    """Bruneton's tent profile (lut_gen.atmosphere.ozone_density)."""
+    return g.clamp(g.sub(1.0, g.div(g.math("ABSOLUTE", g.sub(height, OZONE_PEAK_HEIGHT_M)), OZONE_HALF_WIDTH_M)), 0.0, 1.0)

@@ -46,6 +46,9 @@ def build_groups(bake_dir, engine="CYCLES"):
     nodes.build_terrain_group(images["optical_depth"], images["ambient"], params)
     for table in nodes.COMPOSITOR_TABLES:
         nodes.build_lookup_group(images[table], dims, params, compositor=True, name=nodes.lookup_group_name(table))
+    nodes.build_segment_transmittance_group(images["optical_depth"], params)
+    for table in nodes.COMPOSITOR_TABLES:
+        nodes.build_section_group(table, params)
     nodes.build_aerial_group(images["optical_depth"], params)
     return images, params
 
