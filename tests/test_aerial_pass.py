@@ -21,6 +21,14 @@ def compositor_output(scene, build):
     scene.compositing_node_group = tree
 
 
+def depth_image(tree, layers):
+    """The Depth pass as a grey image (compositor_output builder)."""
+    combine = tree.nodes.new("CompositorNodeCombineColor")
+    for name in ("Red", "Green", "Blue"):
+        tree.links.new(layers.outputs["Depth"], combine.inputs[name])
+    return combine.outputs["Image"]
+
+
 def test_aerial_perspective_pass_matches_twin(addon_package, tmp_path, monkeypatch):
     monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "cache"))
     pkg = addon_package
@@ -46,11 +54,6 @@ def test_aerial_perspective_pass_matches_twin(addon_package, tmp_path, monkeypat
     compositor_output(scene, lambda tree, layers: layers.outputs["Position"])
     position = render_rgb(scene, tmp_path / "position.exr", composite=True)
 
-    def depth_image(tree, layers):
-        combine = tree.nodes.new("CompositorNodeCombineColor")
-        for name in ("Red", "Green", "Blue"):
-            tree.links.new(layers.outputs["Depth"], combine.inputs[name])
-        return combine.outputs["Image"]
     compositor_output(scene, depth_image)
     depth = render_rgb(scene, tmp_path / "depth.exr", composite=True)[..., 0]
 

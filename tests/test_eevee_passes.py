@@ -23,7 +23,7 @@ SCRIPT = textwrap.dedent("""
     from conftest import import_extension
     pkg = import_extension(); pkg.register()
     from test_tone_mapping import sample_scene
-    from test_aerial_pass import compositor_output
+    from test_aerial_pass import compositor_output, depth_image
     from render_util import render_rgb
     out = Path({out!r})
     scene = sample_scene(pkg)
@@ -39,11 +39,6 @@ SCRIPT = textwrap.dedent("""
     scene.ols.enable_light_shafts = True
     scene.ols.num_integration_steps = 8
     shafts = render_rgb(scene, out / "shafts.exr", composite=True)
-    def depth_image(t, layers):
-        combine = t.nodes.new("CompositorNodeCombineColor")
-        for name in ("Red", "Green", "Blue"):
-            t.links.new(layers.outputs["Depth"], combine.inputs[name])
-        return combine.outputs["Image"]
     compositor_output(scene, depth_image)
     depth = render_rgb(scene, out / "depth.exr", composite=True)[..., 0]
     sky = depth >= 0.95 * scene.camera.data.clip_end

@@ -14,11 +14,14 @@ from .inscattering import section_node
 from .optical import segment_transmittance_node
 
 GROUP_NAME = "OLS Aerial Perspective"
-INPUTS = [
+# The render passes both scattering groups read (light_shafts.py reuses them).
+PASS_INPUTS = [
     ("Image", "NodeSocketColor", (0.0, 0.0, 0.0, 1.0)),
     ("Position", "NodeSocketVector", (0.0, 0.0, 0.0)),
     ("Depth", "NodeSocketFloat", 1e10),
     ("Sky Depth", "NodeSocketFloat", 1e9),
+]
+INPUTS = PASS_INPUTS + [
     ("Camera Position", "NodeSocketVector", (0.0, 0.0, 2.0)),
     ("Sun Direction", "NodeSocketVector", (0.0, 0.0, 1.0)),
     ("Sun Strength", "NodeSocketFloat", 10.0),
@@ -41,11 +44,5 @@ def build_aerial_group(optical_depth_image, params):
     seen = g.vmath("ADD", surface, air_light)
     geometry = g.mul(g.math("LESS_THAN", gin.outputs["Depth"], gin.outputs["Sky Depth"]), gin.outputs["Enable"])
     result = g.vlerp(gin.outputs["Image"], seen, geometry)
-    merge = g.node("CompositorNodeCombineColor")
-    split = g.node("CompositorNodeSeparateColor")
-    g.links.new(gin.outputs["Image"], split.inputs["Image"])
-    for name, value in zip(("Red", "Green", "Blue"), g.separate(result)):
-        g.feed(merge.inputs[name], value)
-    g.links.new(split.outputs["Alpha"], merge.inputs["Alpha"])
-    g.links.new(merge.outputs["Image"], gout.inputs["Image"])
+    g.links.new(g.with_alpha_of(gin.outputs["Image"], result), gout.inputs["Image"])
     return tree

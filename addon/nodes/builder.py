@@ -94,6 +94,16 @@ class Graph:
         self.feed(node.inputs["Scale"], scale)
         return node.outputs["Vector"]
 
+    def with_alpha_of(self, image, rgb):
+        """A compositor colour: the channels of vector ``rgb`` with the alpha of ``image``."""
+        split = self.node("CompositorNodeSeparateColor")
+        self.links.new(image, split.inputs["Image"])
+        merge = self.node("CompositorNodeCombineColor")
+        for name, value in zip(("Red", "Green", "Blue"), self.separate(rgb)):
+            self.feed(merge.inputs[name], value)
+        self.links.new(split.outputs["Alpha"], merge.inputs["Alpha"])
+        return merge.outputs["Image"]
+
     def group(self, tree, **inputs):
         """A node of the group ``tree`` (same kind of tree) with its inputs fed; returns its outputs."""
         node = self.node("CompositorNodeGroup" if self.tree.bl_idname == "CompositorNodeTree" else "ShaderNodeGroup")

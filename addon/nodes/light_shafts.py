@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 from ...lut_gen import shadow_map
 from ...lut_gen.atmosphere import RAYLEIGH_PHASE_NORM
+from .aerial import PASS_INPUTS
 from .builder import group_io, new_group
 from .inscattering import section_node
 from .optical import (ozone_density, point_frame, segment_transmittance_node, transmittance_from_net_density,
@@ -172,11 +173,7 @@ def build_integration_group(optical_image, params):
     return tree
 
 
-MAIN_INPUTS = [
-    ("Image", "NodeSocketColor", (0.0, 0.0, 0.0, 1.0)),
-    ("Position", "NodeSocketVector", (0.0, 0.0, 0.0)),
-    ("Depth", "NodeSocketFloat", 1e10),
-    ("Sky Depth", "NodeSocketFloat", 1e9),
+MAIN_INPUTS = PASS_INPUTS + [
     ("Camera Right", "NodeSocketVector", (1.0, 0.0, 0.0)),
     ("Camera Up", "NodeSocketVector", (0.0, 0.0, 1.0)),
     ("Tan Half FOV", "NodeSocketVector", (0.5, 0.3, 0.0)),
@@ -281,11 +278,5 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     tint = g.vlerp((1.0, 1.0, 1.0), colour, g.mul(gin.outputs["Show Cascades"], geometry))
     result = g.vmath("MULTIPLY", result, tint)
 
-    merge = g.node("CompositorNodeCombineColor")
-    split = g.node("CompositorNodeSeparateColor")
-    g.links.new(gin.outputs["Image"], split.inputs["Image"])
-    for name, value in zip(("Red", "Green", "Blue"), g.separate(result)):
-        g.feed(merge.inputs[name], value)
-    g.links.new(split.outputs["Alpha"], merge.inputs["Alpha"])
-    g.links.new(merge.outputs["Image"], gout.inputs["Image"])
+    g.links.new(g.with_alpha_of(gin.outputs["Image"], result), gout.inputs["Image"])
     return tree
