@@ -1,5 +1,6 @@
 """The small part of OpenEXR the add-on needs without the OpenEXR package (Blender's Python
-has none): read a header's attributes, write an uncompressed 32-bit float RGB scanline file.
+has none): read a header's attributes and the first pixel of an uncompressed file, write an
+uncompressed 32-bit float RGB scanline file.
 Layout per the OpenEXR file-format document: magic, version, attributes, offset table,
 one scanline per block with channels in name order (B, G, R)."""
 from __future__ import annotations
@@ -41,24 +42,61 @@ def encode_rgb_float(rgb_top_down: np.ndarray, strings: dict) -> bytes:
     return struct.pack("<ii", MAGIC, VERSION) + header + offsets + lines
 
 
-def read_string_attributes(path) -> dict:
-    """String attributes of an EXR header; ValueError when the file is not an EXR."""
-    with open(path, "rb") as f:
-        data = f.read(1 << 16)
+def _header(data: bytes):
+    """({name: (kind, raw value)}, offset just past the header) of an EXR file's bytes."""
     if len(data) < 8 or struct.unpack("<i", data[:4])[0] != MAGIC:
         raise ValueError("not an OpenEXR file")
-    pos, out = 8, {}
+    pos, attributes = 8, {}
     while True:
         end = data.index(b"\0", pos)
         name = data[pos:end].decode()
         if not name:
-            return out
+            return attributes, end + 1
         type_end = data.index(b"\0", end + 1)
         kind = data[end + 1:type_end].decode()
         (size,) = struct.unpack("<i", data[type_end + 1:type_end + 5])
         value = data[type_end + 5:type_end + 5 + size]
         if len(value) < size:
             raise ValueError("header is truncated")
-        if kind == "string":
-            out[name] = value.decode()
+        attributes[name] = (kind, value)
         pos = type_end + 5 + size
+
+
+def read_string_attributes(path) -> dict:
+    """String attributes of an EXR header; ValueError when the file is not an EXR."""
+    with open(path, "rb") as f:
+        data = f.read(1 << 16)
+    attributes, _ = _header(data)
+    return {name: value.decode() for name, (kind, value) in attributes.items() if kind == "string"}
+
+
+def _channel_types(chlist: bytes) -> list:
+    """[(name, pixel type)] of a chlist attribute (1 half, 2 float), in file (name) order."""
+    channels, at = [], 0
+    while chlist[at] != 0:
+        end = chlist.index(b"\0", at)
+        channels.append((chlist[at:end].decode(), struct.unpack_from("<i", chlist, end + 1)[0]))
+        at = end + 17                        # type, pLinear + 3 reserved, x and y sampling
+    return channels
+
+
+def read_first_pixel(path) -> float:
+    """The first pixel of the first channel of an uncompressed scanline EXR (what a File Output
+    node writes with codec None); ValueError for anything else."""
+    with open(path, "rb") as f:
+        data = f.read()
+    try:
+        attributes, end = _header(data)
+        channels = _channel_types(attributes["channels"][1])
+        compression = attributes["compression"][1][0]
+    except (KeyError, IndexError, struct.error) as exc:
+        raise ValueError(f"{path}: damaged EXR header ({exc})") from None
+    if compression != 0 or not channels:
+        raise ValueError(f"{path}: expected an uncompressed EXR with channels")
+    pixels = struct.unpack_from("<Q", data, end)[0] + 8     # first chunk, past its y and byte count
+    pixel_type = channels[0][1]
+    if pixel_type == FLOAT:
+        return float(struct.unpack_from("<f", data, pixels)[0])
+    if pixel_type == 1:
+        return float(struct.unpack_from("<e", data, pixels)[0])
+    raise ValueError(f"{path}: unsupported pixel type {pixel_type}")

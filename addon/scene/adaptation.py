@@ -22,6 +22,7 @@ from pathlib import Path
 import bpy
 from bpy.app.handlers import persistent
 
+from ...lut_gen import exr_min
 from ..post import tone_mapping as twin
 
 TONE_NODE = "OLS Tone Mapping"          # compositor.NODE_NAME (not imported: compositor imports us)
@@ -53,38 +54,10 @@ def inputs_for_frame(frame: int, last_frame, last_luminance, *, enabled: bool, f
 
 
 def read_exr_pixel(path) -> float:
-    """The first pixel of the first channel of an uncompressed scanline EXR (what our File
-    Output node writes). Blender's Python has no OpenEXR, and loading an image datablock from a
-    render handler (the render job's thread in the UI) is not safe, so the few bytes are parsed here."""
-    data = Path(path).read_bytes()
-    if data[:4] != b"\x76\x2f\x31\x01":
-        raise ValueError(f"{path}: not an OpenEXR file")
-    pos, channels, compression = 8, [], None
-    while data[pos] != 0:
-        name_end = data.index(b"\0", pos)
-        type_end = data.index(b"\0", name_end + 1)
-        name, kind = data[pos:name_end].decode(), data[name_end + 1:type_end].decode()
-        size = struct.unpack_from("<i", data, type_end + 1)[0]
-        value = data[type_end + 5:type_end + 5 + size]
-        if kind == "chlist":
-            at = 0
-            while value[at] != 0:
-                end = value.index(b"\0", at)
-                channels.append((value[at:end].decode(), struct.unpack_from("<i", value, end + 1)[0]))
-                at = end + 17                        # type, pLinear + 3 reserved, x and y sampling
-        elif name == "compression":
-            compression = value[0]
-        pos = type_end + 5 + size
-    if compression != 0 or not channels:
-        raise ValueError(f"{path}: expected an uncompressed EXR with channels")
-    first_chunk = struct.unpack_from("<Q", data, pos + 1)[0]   # offset table after the header's 0
-    pixels = first_chunk + 8                                   # past the chunk's y and byte count
-    pixel_type = channels[0][1]                                # 1 half, 2 float (channels sorted by name)
-    if pixel_type == 2:
-        return float(struct.unpack_from("<f", data, pixels)[0])
-    if pixel_type == 1:
-        return float(struct.unpack_from("<e", data, pixels)[0])
-    raise ValueError(f"{path}: unsupported pixel type {pixel_type}")
+    """The luminance our File Output node wrote (one uncompressed pixel). Blender's Python has no
+    OpenEXR, and loading an image datablock from a render handler (the render job's thread in the
+    UI) is not safe, so lut_gen's small EXR reader parses the bytes."""
+    return exr_min.read_first_pixel(path)
 
 
 # -- the scene side -----------------------------------------------------------------------------
