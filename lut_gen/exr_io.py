@@ -26,6 +26,7 @@ from typing import Optional
 import numpy as np
 
 from . import atlas, exr_min
+from .atomic import atomic_path, default_mode
 from .atmosphere import AtmosphereParams
 from .sampling import Luts
 
@@ -83,16 +84,9 @@ def _write_rgb(OpenEXR, path, rgb_top_down, strings: dict):
 
 def write_rgb(path, rgb_bottom_up) -> Path:
     """A linear RGB image (rows bottom to top, as Blender's) as an EXR file (atomic write)."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         _write_rgb(_openexr_or_none(), tmp, np.asarray(rgb_bottom_up)[::-1], {})
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+    return Path(path)
 
 
 def _require_openexr():
@@ -178,7 +172,7 @@ def save(luts: Luts, directory, *, overwrite: bool = False) -> Path:
             os.close(fd)
             staged.append((tmp, directory / FILES[name]))
             _write_rgb(OpenEXR, tmp, image[::-1], header)
-            os.chmod(tmp, 0o666 & ~_umask())
+            os.chmod(tmp, default_mode())
         for tmp, final in staged:
             os.replace(tmp, final)
     except OSError as exc:
@@ -188,12 +182,6 @@ def save(luts: Luts, directory, *, overwrite: bool = False) -> Path:
             if os.path.exists(tmp):
                 os.unlink(tmp)
     return directory
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 def _existing_key(directory: Path):

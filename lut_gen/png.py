@@ -1,13 +1,13 @@
 """Minimal PNG writer (8-bit RGB), so previews need nothing beyond numpy."""
 from __future__ import annotations
 
-import os
 import struct
-import tempfile
 import zlib
 from pathlib import Path
 
 import numpy as np
+
+from .atomic import atomic_path
 
 
 def _chunk(kind: bytes, data: bytes) -> bytes:
@@ -28,15 +28,8 @@ def write_png(path, rgb8: np.ndarray) -> Path:
     """Write atomically (temporary file + rename)."""
     path = Path(path)
     data = encode_png(rgb8)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    with atomic_path(path, mode=0o644) as tmp:
+        Path(tmp).write_bytes(data)
     return path
 
 

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from . import aerial
+from .atomic import atomic_path
 from .sampling import Luts
 from .shadow_map import CASCADE_COLORS, Camera, ShadowCascades, select_cascade, visibility
 
@@ -136,23 +137,14 @@ def save_inputs(path, camera: Camera, sun_direction, cascades: ShadowCascades, s
     """Camera, sun, shadow cascades and settings of a frame as one .npz (atomic write)."""
     import dataclasses
     import json
-    import os
-    import tempfile
-    path = Path(path)
     arrays = dict(camera_position=camera.position, camera_rotation=camera.rotation,
                   tan_half_fov=np.asarray(camera.tan_half_fov), clip_end=np.asarray(camera.clip_end),
                   sun_direction=np.asarray(sun_direction, dtype=np.float64), frame=cascades.frame,
                   centers=cascades.centers, halves=cascades.halves, far_depths=cascades.far_depths,
                   depths=cascades.depths, settings=np.asarray(json.dumps(dataclasses.asdict(settings))))
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez_compressed(f, **arrays)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        np.savez_compressed(f, **arrays)
+    return Path(path)
 
 
 def load_inputs(path):
