@@ -12,7 +12,7 @@ from bpy.props import BoolProperty, EnumProperty, StringProperty
 
 from .. import lut_gen
 from . import props
-from .scene import adaptation, animation, checks, compositor, frame_update, luts, shadow_maps, wiring
+from .scene import adaptation, animation, checks, compositor, frame_update, luts, wiring
 from .scene import sun as sun_lamps
 
 RESOLUTION_ITEMS = [("default", "Default", "The sample's 32 x 128 x 64 x 16 tables (~10-20 s)"),
@@ -239,7 +239,7 @@ def _update_frame(scene, depsgraph):
         if frame_update.update_frame(scene, depsgraph):
             for problem in checks.render_problems(scene, depsgraph):
                 print(f"Outdoor Light Scattering: {problem}")
-    except (shadow_maps.ShadowMapError, ValueError) as exc:
+    except ValueError as exc:           # a ShadowMapError (a ValueError) says what to change
         compositor.disable_light_shafts(scene)
         print(f"Outdoor Light Scattering: light shafts are off for this render: {exc}")
 

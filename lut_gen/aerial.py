@@ -79,7 +79,8 @@ def segment_transmittance(luts: Luts, start, end) -> np.ndarray:
     # horizon (the table changes fastest there): integrate along the segment instead.
     horizon = np.where(hits, _horizon_distance(luts, end, -direction), _horizon_distance(luts, start, direction))
     weight = _smoothstep(*QUADRATURE_BAND, horizon)[..., None]
-    net = quadrature_net_density(luts.params, start, end) + (net - quadrature_net_density(luts.params, start, end)) * weight
+    quadrature = quadrature_net_density(luts.params, start, end)
+    net = quadrature + (net - quadrature) * weight
     optical_depth = np.maximum(net, 0.0) @ luts.params.extinction_matrix()
     return np.where(length > 1e-6, np.exp(-np.minimum(optical_depth, 80.0)), 1.0)
 

@@ -19,6 +19,7 @@ import math
 from dataclasses import dataclass
 
 from ...lut_gen import shadow_map
+from ...lut_gen.scattering_pass import MIN_FORWARD_COSINE
 from ...lut_gen.atmosphere import RAYLEIGH_PHASE_NORM
 from .aerial import PASS_INPUTS
 from .builder import group_io, new_group
@@ -30,7 +31,6 @@ GROUP_NAME = "OLS Light Shafts"
 SHADOW_TEST_GROUP = "OLS Shadow Test"
 INTEGRATION_GROUP = "OLS Integration Step"
 NEVER = 1e20                 # "no lit sample" in the first-lit minimum
-MIN_FORWARD_COSINE = 1e-3
 
 
 @dataclass(frozen=True)

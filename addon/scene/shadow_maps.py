@@ -2,8 +2,9 @@
 rendered orthographically along the sun direction by lut_gen.shadow_map, stored in two
 images the "OLS Light Shafts" group reads ("OLS Shadow Map", "OLS Shadow Cascades").
 
-They are rendered again before each frame renders (render_pre), since sun, camera and geometry
-may all have moved; the camera model and the cascades also feed the group's inputs.
+They are rendered again before each frame is composited (see frame_update), since sun, camera
+and geometry may all have moved; the camera model and the cascade rectangles reach the group
+through the "OLS Frame Values" image.
 """
 from __future__ import annotations
 
@@ -112,14 +113,14 @@ def write_images(cascades: shadow_map.ShadowCascades):
 def ensure_images(resolution: int, count: int):
     """The two images at the size ``resolution`` and ``count`` need (contents: all lit until
     the first render writes them)."""
-    empty = shadow_map.ShadowCascades(np.eye(3), np.zeros((count, 2)), np.ones((count, 2)),
-                                      np.ones(count), np.full((count, resolution, resolution), shadow_map.EMPTY_DEPTH))
     atlas = bpy.data.images.get(ATLAS_IMAGE)
     params = bpy.data.images.get(PARAMETER_IMAGE)
     blocks = -(-count // shadow_map.CASCADES_PER_BLOCK)
     if (atlas is None or params is None or tuple(atlas.size) != (blocks * resolution, resolution)
             or tuple(params.size) != (count + 1, len(shadow_map.PARAM_ROWS))):
-        write_images(empty)
+        empty = np.full((count, resolution, resolution), shadow_map.EMPTY_DEPTH, dtype=np.float32)
+        write_images(shadow_map.ShadowCascades(np.eye(3), np.zeros((count, 2)), np.ones((count, 2)),
+                                               np.ones(count), empty))
     return bpy.data.images[ATLAS_IMAGE], bpy.data.images[PARAMETER_IMAGE]
 
 
