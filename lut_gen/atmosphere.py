@@ -1,7 +1,9 @@
-"""Atmosphere media: constants, density profiles, phase functions, validation.
+"""Atmosphere media: constants, density profiles, phase functions, validation, presets.
 
 Units are metres and 1/m. Colour triples are (red, green, blue) at 680/550/440 nm,
-the sample's wavelengths. Everything here is a pure function of AtmosphereParams.
+the sample's wavelengths. A spectral bake (the default) reads them as three samples of a
+power law over wavelength (lut_gen.spectrum); the "Sample 2013" preset uses them directly as
+RGB, as the sample did. Everything here is a pure function of AtmosphereParams.
 """
 from __future__ import annotations
 
@@ -36,15 +38,23 @@ def rayleigh_scattering_from_air(wavelengths_nm: Rgb = WAVELENGTHS_NM) -> Rgb:
 
 DEFAULT_RAYLEIGH_SCATTERING: Rgb = rayleigh_scattering_from_air()
 DEFAULT_MIE_SCATTERING: Rgb = (2e-5, 2e-5, 2e-5)
+# Lambertian albedo of the ground under the atmosphere: vegetation reflects 0.15-0.25 of the
+# visible, bare soil and rock 0.2-0.35, water under 0.1. 0.2 sits in the middle of the land
+# a terrain scene shows (Bruneton 2017 uses 0.1, Hosek-Wilkie's default is 0.3).
+DEFAULT_GROUND_ALBEDO = 0.2
 
 
 @dataclass(frozen=True)
 class AtmosphereParams:
-    """The media of the sample (Yusov 2013), with an optional Bruneton ozone layer.
+    """The media of the sample (Yusov 2013) plus Bruneton's ozone layer, baked spectrally.
 
     ``mie_scattering`` is the coefficient at aerosol density 1; the effective Mie
     scattering is ``mie_scattering * aerosol_density`` and Mie extinction adds
-    ``aerosol_absorption`` times that.
+    ``aerosol_absorption`` times that. ``spectral``: integrate at many wavelengths and convert
+    with the CIE observer (False: the sample's three wavelengths as RGB). ``ozone_column`` (Dobson
+    units) sets the spectral ozone layer; ``ozone_absorption`` only the three-wavelength one.
+    ``ground_albedo``: Lambertian ground, lit by the sun and the sky; its light enters the
+    higher scattering orders and the ground a camera sees below the horizon.
     """
 
     earth_radius: float = 6_360_000.0
@@ -56,27 +66,32 @@ class AtmosphereParams:
     aerosol_density: float = 1.0
     aerosol_absorption: float = 0.1
     mie_g: float = 0.76
-    ozone: bool = False
+    ozone: bool = True
     ozone_absorption: Rgb = field(default=OZONE_ABSORPTION)
+    ozone_column: float = 300.0
+    spectral: bool = True
+    ground_albedo: float = DEFAULT_GROUND_ALBEDO
 
     # -- validation -------------------------------------------------------
     def validate(self) -> "AtmosphereParams":
         """Raise ValueError naming the first bad field; return self when valid."""
         positive = ("earth_radius", "atmosphere_height", "rayleigh_scale_height", "mie_scale_height")
-        non_negative = ("aerosol_density", "aerosol_absorption")
+        non_negative = ("aerosol_density", "aerosol_absorption", "ozone_column")
         for name in positive:
             _check_number(name, getattr(self, name), lower=0.0, inclusive=False)
         for name in non_negative:
             _check_number(name, getattr(self, name), lower=0.0, inclusive=True)
         _check_number("mie_g", self.mie_g, lower=-0.999, upper=0.999, inclusive=True)
+        _check_number("ground_albedo", self.ground_albedo, lower=0.0, upper=1.0, inclusive=True)
         for name in ("rayleigh_scattering", "mie_scattering", "ozone_absorption"):
             value = getattr(self, name)
             if not isinstance(value, (tuple, list)) or len(value) != 3:
                 raise ValueError(f"{name} must be three numbers (red, green, blue), got {value!r}")
             for channel, v in zip("rgb", value):
                 _check_number(f"{name}.{channel}", v, lower=0.0, inclusive=True)
-        if not isinstance(self.ozone, (bool, np.bool_)):
-            raise ValueError(f"ozone must be True or False, got {self.ozone!r}")
+        for name in ("ozone", "spectral"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
         if self.atmosphere_height >= self.earth_radius:
             raise ValueError("atmosphere_height must be smaller than earth_radius")
         return self
@@ -86,27 +101,39 @@ class AtmosphereParams:
     def top_radius(self) -> float:
         return self.earth_radius + self.atmosphere_height
 
+    # RGB coefficients for code that works in RGB (node groups, the pass twins): the triples
+    # themselves for Sample 2013 params, white-balanced spectral means and fitted extinction
+    # for spectral ones (lut_gen.spectrum.rgb_coefficients). The bake uses spectrum.bake_media.
     @property
     def rayleigh(self) -> np.ndarray:
+        """Rayleigh scattering coefficient at sea level, RGB."""
+        if self.spectral:
+            return np.array(_spectrum().rgb_coefficients(self)[0])
         return np.asarray(self.rayleigh_scattering, dtype=np.float64)
 
     @property
     def mie(self) -> np.ndarray:
-        """Mie scattering coefficient at sea level, aerosol density applied."""
+        """Mie scattering coefficient at sea level, aerosol density applied, RGB."""
+        if self.spectral:
+            return np.array(_spectrum().rgb_coefficients(self)[1])
         return np.asarray(self.mie_scattering, dtype=np.float64) * self.aerosol_density
 
     @property
     def mie_extinction(self) -> np.ndarray:
-        return self.mie * (1.0 + self.aerosol_absorption)
+        return self.extinction_matrix()[1]
 
     @property
     def ozone_extinction(self) -> np.ndarray:
-        scale = 1.0 if self.ozone else 0.0
-        return np.asarray(self.ozone_absorption, dtype=np.float64) * scale
+        return self.extinction_matrix()[2]
 
     def extinction_matrix(self) -> np.ndarray:
-        """(3 media, 3 channels): optical depth = net densities (R, M, O) @ this."""
-        return np.stack([self.rayleigh, self.mie_extinction, self.ozone_extinction])
+        """(3 media, 3 channels): RGB optical depth = net densities (R, M, O) @ this."""
+        if self.spectral:
+            return _spectrum().rgb_coefficients(self)[2].copy()
+        ozone = np.asarray(self.ozone_absorption, dtype=np.float64) * (1.0 if self.ozone else 0.0)
+        mie = np.asarray(self.mie_scattering, dtype=np.float64) * self.aerosol_density
+        return np.stack([np.asarray(self.rayleigh_scattering, dtype=np.float64),
+                         mie * (1.0 + self.aerosol_absorption), ozone])
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -123,6 +150,26 @@ class AtmosphereParams:
             raise ValueError(f"unknown atmosphere parameter(s): {', '.join(sorted(unknown))}")
         kwargs = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
         return cls(**kwargs)
+
+
+def _spectrum():
+    from . import spectrum     # imports this module: resolved at call time
+    return spectrum
+
+
+PRESETS = {
+    # Spectral bake, ozone, ground: the colours of a real clear sky (the default).
+    "clear-sky": {},
+    # The sample's own media: three wavelengths used as RGB, no ozone.
+    "sample-2013": {"spectral": False, "ozone": False, "ground_albedo": 0.0},
+}
+
+
+def preset(name: str, **changes) -> AtmosphereParams:
+    """AtmosphereParams of a named preset (PRESETS), with ``changes`` on top."""
+    if name not in PRESETS:
+        raise ValueError(f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}")
+    return AtmosphereParams(**{**PRESETS[name], **changes})
 
 
 def _check_number(name, value, *, lower=None, upper=None, inclusive=True):

@@ -2,10 +2,15 @@
 
 Stages, each a pure function of AtmosphereParams:
   optical depth   net Rayleigh/Mie/ozone density from (height, cos zenith) to the top
-  single          L1, eq. (2) with the sun term, trapezoidal along the view ray
+  single          L1, eq. (2) with the sun term, trapezoidal along the view ray, Rayleigh and
+                  Mie kept apart without their phase functions (applied exactly at look-up)
   orders 2..N     J(n) = sphere integral of L(n-1) against the phase functions (eq. 1),
                   L(n) = its integral along the view ray (eq. 2); summed into "higher"
   ambient         E_sky, eq. (3), over the upper hemisphere at 20 m
+
+Spectral params are integrated at the wavelengths of lut_gen.spectrum (every stage works on C
+channels at once: the optical-depth table holds net densities, which do not depend on
+wavelength) and converted to linear Rec.709 at the end.
 
 Two ideas keep this fast in numpy without giving up accuracy:
 
@@ -34,6 +39,8 @@ import numpy as np
 
 from . import parameterization as par
 from .atmosphere import AtmosphereParams, mie_phase, ozone_density, rayleigh_phase
+from .spectrum import Media, bake_media
+from .ground import GroundSource
 from .geometry import clustered_nodes, distance_to_sphere_exit, radius_along, ray_length
 from .interpolation import axis_weights, gather, interpolate, packed_rows, resample_matrix, resample_separable
 from .sampling import EARTH_HIT_NET_DENSITY, Luts
@@ -179,12 +186,6 @@ def _trapezoid_weights(s):
     return weights
 
 
-def transmittance_table(params: AtmosphereParams, optical_depth: np.ndarray) -> np.ndarray:
-    ext = params.extinction_matrix().astype(np.float32)
-    visible = optical_depth[..., :1] < EARTH_HIT_NET_DENSITY * 0.5
-    return np.where(visible, np.exp(-np.minimum(optical_depth @ ext, 80.0)), 0.0).astype(np.float32)
-
-
 # -- view rays: product-integration weights ------------------------------------------
 
 @dataclass
@@ -192,12 +193,12 @@ class RayNodes:
     """Nodes along a batch of view rays and the sun-independent hat-function weights."""
     s: np.ndarray          # (rays, K) distance from the ray start
     radius: np.ndarray     # (rays, K) distance to the Earth centre
-    weight_rayleigh: np.ndarray   # (rays, K, 3) integral of rho_R * T_view * hat_k ds
-    weight_mie: np.ndarray        # (rays, K, 3) same with rho_M
+    weight_rayleigh: np.ndarray   # (rays, K, C) integral of rho_R * T_view * hat_k ds
+    weight_mie: np.ndarray        # (rays, K, C) same with rho_M
 
 
-def view_ray_nodes(params: AtmosphereParams, height: float, cos_view, above, n_nodes: int, substeps: int,
-                   uniform_share: float = NODE_UNIFORM_SHARE) -> RayNodes:
+def view_ray_nodes(params: AtmosphereParams, media: Media, height: float, cos_view, above, n_nodes: int,
+                   substeps: int, uniform_share: float = NODE_UNIFORM_SHARE) -> RayNodes:
     r = np.full(len(cos_view), params.earth_radius + height)
     c = np.asarray(cos_view, dtype=np.float64)
     length = ray_length(params, r, c, ~np.asarray(above))
@@ -206,7 +207,7 @@ def view_ray_nodes(params: AtmosphereParams, height: float, cos_view, above, n_n
     s_fine = s[:, :-1, None] + (s[:, 1:, None] - s[:, :-1, None]) * tau    # (rays, K-1, M+1)
     h_fine = radius_along(r[:, None, None], c[:, None, None], s_fine) - params.earth_radius
     dens = _densities32(params, h_fine)                                    # (rays, K-1, M+1, 3)
-    sigma = dens @ params.extinction_matrix().astype(np.float32)            # extinction per channel
+    sigma = dens @ media.extinction_matrix().astype(np.float32)             # extinction per channel
     ds = ((s[:, 1:] - s[:, :-1]) / substeps).astype(np.float32)[..., None, None]
     # Optical depth from the ray start: trapezoid inside each interval plus earlier intervals.
     inside = np.concatenate([np.zeros_like(sigma[:, :, :1]),
@@ -221,7 +222,7 @@ def view_ray_nodes(params: AtmosphereParams, height: float, cos_view, above, n_n
         g = dens[..., medium:medium + 1] * view_trans * ds * trap[None, None, :, None]
         right = np.einsum("rkmc,m->rkc", g, hat_right)
         left = g.sum(axis=2) - right
-        w = np.zeros((len(r), n_nodes, 3), dtype=np.float32)
+        w = np.zeros((len(r), n_nodes, media.channels), dtype=np.float32)
         w[:, :-1] += left
         w[:, 1:] += right
         weights.append(w)
@@ -245,20 +246,28 @@ def bilinear_cells(table: np.ndarray) -> np.ndarray:
     return np.stack([v00, v01 - v00, v10 - v00, v11 - v10 - v01 + v00], axis=2).astype(np.float32)
 
 
-def bake_single(params: AtmosphereParams, dims, trans_table: np.ndarray, progress: Progress) -> np.ndarray:
-    """Single-scattered radiance divided by the Rayleigh phase, (n_h, n_a, n_s, n_t, 3)."""
+def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.ndarray,
+                progress: Progress) -> Tuple[np.ndarray, np.ndarray]:
+    """Single scattering without phase functions, (n_h, n_a, n_s, n_t, C) for Rayleigh and for
+    Mie: radiance = rayleigh * P_R(nu) + mie * P_M(nu)."""
     n_h, n_a, n_s, n_t = dims
     heights, cos_view, above, cos_sun, cos_sun_view = par.grid_axes(params, dims)
-    n_odh, n_odc = trans_table.shape[:2]
-    padded = np.concatenate([trans_table, np.zeros(trans_table.shape[:2] + (1,), np.float32)], axis=-1)
+    n_odh, n_odc = optical_depth.shape[:2]
+    # Net densities are interpolated and then exponentiated per channel; the 1e20 of Earth-hit
+    # texels makes any cell that touches the Earth's shadow dark.
+    net = np.minimum(optical_depth, np.float32(1e6))
+    padded = np.concatenate([net, np.zeros(net.shape[:2] + (1,), np.float32)], axis=-1)
     cells, width = packed_rows(bilinear_cells(padded).reshape((n_odh - 1) * (n_odc - 1), 16))
+    extinction = media.extinction_matrix().astype(np.float32)
     k_nodes = SINGLE_NODES
-    out = np.empty((n_h, n_a, n_s, n_t, 3), dtype=np.float32)
-    tasks = _ray_batches(n_h, n_a, k_nodes * n_s * n_t)
+    channels = media.channels
+    out_r = np.empty((n_h, n_a, n_s, n_t, channels), dtype=np.float32)
+    out_m = np.empty((n_h, n_a, n_s, n_t, channels), dtype=np.float32)
+    tasks = _ray_batches(n_h, n_a, k_nodes * n_s * n_t * max(1, channels // 3))
 
     def fill(task):
         i, rays = tasks[task]
-        nodes = view_ray_nodes(params, heights[i], cos_view[i][rays], above[rays], k_nodes, SINGLE_SUBSTEPS)
+        nodes = view_ray_nodes(params, media, heights[i], cos_view[i][rays], above[rays], k_nodes, SINGLE_SUBSTEPS)
         ct = par.clamp_sun_view(cos_view[i][rays, None, None], cos_sun[None, :, None], cos_sun_view[None, None, :])
         node_h = nodes.radius - params.earth_radius
         ih, wh = axis_weights(par.unit_to_centre_x(node_h / params.atmosphere_height, n_odh), n_odh)
@@ -271,19 +280,21 @@ def bake_single(params: AtmosphereParams, dims, trans_table: np.ndarray, progres
         basis[..., 1] = wc
         basis[..., 2] = wh[:, :, None, None]
         basis[..., 3] = wc * wh[:, :, None, None]
-        sun_trans = np.einsum("akstjc,akstj->akstc", cell, basis)                         # (a, K, s, t, 4)
-        # Sum over nodes for both media at once, as matmuls per ray and channel (BLAS).
+        # Net densities medium-major, then one matmul gives every channel's optical depth.
+        sun_net = np.einsum("akstjc,akstj->castk", cell[..., :3], basis)                 # (3, a, s, t, K)
         n_rays = len(nodes.s)
-        by_channel = sun_trans.transpose(0, 4, 2, 3, 1).reshape(n_rays, 4, n_s * n_t, k_nodes)[:, :3]
-        weights = np.stack([nodes.weight_rayleigh, nodes.weight_mie], axis=-1).transpose(0, 2, 1, 3)  # (a, 3, K, 2)
-        integrals = np.matmul(by_channel, weights).reshape(n_rays, 3, n_s, n_t, 2)
-        ray_r = integrals[..., 0].transpose(0, 2, 3, 1)
-        ray_m = integrals[..., 1].transpose(0, 2, 3, 1)
-        phase_ratio = (mie_phase(ct, params.mie_g) / rayleigh_phase(ct))[..., None]
-        out[i, rays] = params.rayleigh * ray_r + params.mie * phase_ratio * ray_m
+        depth = (-extinction.T) @ sun_net.reshape(3, -1)                                   # (C, a*s*t*K)
+        np.maximum(depth, np.float32(-80.0), out=depth)
+        sun_trans = np.exp(depth, out=depth).reshape(channels, n_rays, n_s * n_t, k_nodes)
+        # Sum over nodes for both media at once, as matmuls per ray and channel (BLAS).
+        by_channel = sun_trans.transpose(1, 0, 2, 3)                                       # (a, C, s*t, K)
+        weights = np.stack([nodes.weight_rayleigh, nodes.weight_mie], axis=-1).transpose(0, 2, 1, 3)  # (a, C, K, 2)
+        integrals = np.matmul(by_channel, weights).reshape(n_rays, channels, n_s, n_t, 2)
+        out_r[i, rays] = media.rayleigh * integrals[..., 0].transpose(0, 2, 3, 1)
+        out_m[i, rays] = media.mie * integrals[..., 1].transpose(0, 2, 3, 1)
 
     _parallel_rows(fill, len(tasks), progress, "single scattering")
-    return out
+    return out_r, out_m
 
 
 # -- higher orders -----------------------------------------------------------------------
@@ -336,11 +347,15 @@ def phase_kernels(params: AtmosphereParams, mu, mu_weights, n_az: int):
     return kernels
 
 
-def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az):
+def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az, prev_mie=None, ground=None):
     """J~ for Rayleigh and Mie (phase-convolved radiance, per unit density and scattering
-    coefficient) on the order grid: (n_h, n_a, n_s, n_t, 6). ``prev_n`` is the previous order
-    divided by the Rayleigh phase, like the stored tables."""
+    coefficient) on the order grid: (n_h, n_a, n_s, n_t, 2C). ``prev_n`` is the previous order
+    divided by the Rayleigh phase, like the stored tables; ``prev_mie`` (order 2) the single Mie
+    scattering without its phase, which is applied here per sphere direction. ``ground``:
+    (GroundSource, irradiance of the ground by the order before) adds the lit ground."""
     n_h, n_a, n_s, n_t = dims_j
+    channels = prev_n.shape[-1]
+    source = prev_n if prev_mie is None else np.concatenate([prev_n, prev_mie], axis=-1)
     n_mu = len(mu)
     heights, cos_view, _, cos_sun, cos_sun_view = par.grid_axes(params, dims_j)
     half = n_az // 2 + 1
@@ -354,7 +369,7 @@ def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az):
     xt = par.sun_view_to_x(ct, n_t)                                                          # (s, mu, az)
     ia, wa = axis_weights(xa, n_a)
     it, wt = axis_weights(xt, n_t)
-    packed, width = packed_rows(prev_n.reshape(-1, 3))
+    packed, width = packed_rows(source.reshape(-1, source.shape[-1]))
     base_h = np.arange(n_h)[:, None, None, None] * (n_a * n_s * n_t)
     base_s = np.arange(n_s)[None, :, None, None] * n_t
     radiance = np.zeros((n_h, n_s, n_mu, half, width), dtype=np.float32)
@@ -362,16 +377,22 @@ def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az):
         for dt, w_t in ((0, 1 - wt), (1, wt)):
             idx = base_h + (ia + da)[:, None, :, None] * (n_s * n_t) + base_s + (it + dt)[None]
             radiance += (w_a[:, None, :, None] * w_t[None])[..., None] * gather(packed, width, idx)
-    radiance = radiance[..., :3] * rayleigh_phase(ct).astype(np.float32)[None, ..., None]
+    scattered = radiance[..., :channels] * rayleigh_phase(ct).astype(np.float32)[None, ..., None]
+    if prev_mie is not None:
+        scattered += radiance[..., channels:2 * channels] * mie_phase(ct, params.mie_g).astype(np.float32)[None, ..., None]
+    if ground is not None:
+        source, irradiance = ground
+        scattered += source.radiance(irradiance, ct)
+    radiance = scattered
     # Convolution in azimuth = product of cosine spectra; a matmul over mu per frequency.
     forward, inverse = _cosine_transforms(n_az)
-    by_az = np.ascontiguousarray(radiance.transpose(3, 2, 0, 1, 4)).reshape(half, -1)           # (j, mu*h*s*3)
-    spectrum = (forward @ by_az).reshape(half, n_mu, -1)                                       # (m, mu, h*s*3)
-    table = np.zeros((n_h, n_s, n_mu, half, 8), dtype=np.float32)                             # 6 used, 8 packs
+    by_az = np.ascontiguousarray(radiance.transpose(3, 2, 0, 1, 4)).reshape(half, -1)           # (j, mu*h*s*C)
+    spectrum = (forward @ by_az).reshape(half, n_mu, -1)                                       # (m, mu, h*s*C)
+    table = np.zeros((n_h, n_s, n_mu, half, 2 * channels), dtype=np.float32)
     for medium, kernel in enumerate(kernels):
-        conv = np.matmul(kernel, spectrum).reshape(half, -1)                                   # (m, mu_v*h*s*3)
-        back = (inverse @ conv).reshape(half, n_mu, n_h, n_s, 3)                              # (j, mu_v, h, s, 3)
-        table[..., 3 * medium:3 * medium + 3] = back.transpose(2, 3, 1, 0, 4)
+        conv = np.matmul(kernel, spectrum).reshape(half, -1)                                   # (m, mu_v*h*s*C)
+        back = (inverse @ conv).reshape(half, n_mu, n_h, n_s, channels)                       # (j, mu_v, h, s, C)
+        table[..., channels * medium:channels * (medium + 1)] = back.transpose(2, 3, 1, 0, 4)
     # Resample from (mu, az) to the table's (cos view zenith, cos sun-view) nodes.
     ca = cos_view[:, :, None, None]                                                         # (h, a, 1, 1)
     cs = cos_sun[None, None, :, None]
@@ -380,7 +401,7 @@ def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az):
     cos_daz = np.where(denom > 1e-9, (ctn - ca * cs) / np.maximum(denom, 1e-9), 1.0)
     i_az, w_az = axis_weights(np.arccos(np.clip(cos_daz, -1, 1)) / d_az, half)               # (h, a, s, t)
     i_mu, w_mu = axis_weights(np.interp(cos_view, mu, np.arange(n_mu)), n_mu)                 # (h, a)
-    packed, width = packed_rows(table.reshape(-1, 8))
+    packed, width = packed_rows(table.reshape(-1, 2 * channels))
     base = (np.arange(n_h)[:, None, None, None] * n_s + np.arange(n_s)[None, None, :, None]) * n_mu
     out = np.zeros((n_h, n_a, n_s, n_t, width), dtype=np.float32)
     for dm, w_m in ((0, 1 - w_mu), (1, w_mu)):
@@ -389,22 +410,23 @@ def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az):
             out += (w_m[:, :, None, None] * w_z)[..., None] * gather(packed, width, idx)
     # The cosine-series convolution rings slightly (a few 1e-3 of the peak) next to the sun's
     # Mie peak; scattered radiance is never negative.
-    return np.maximum(out[..., :6], 0.0)
+    return np.maximum(out[..., :2 * channels], 0.0)
 
 
-def _integrate_order(params, dims_j, j_table, progress: Progress, stage: str):
+def _integrate_order(params, media: Media, dims_j, j_table, progress: Progress, stage: str):
     """L(n) on the order grid from J~ (eq. 2), product-integrated along each view ray."""
     n_h, n_a, n_s, n_t = dims_j
     heights, cos_view, above, cos_sun, cos_sun_view = par.grid_axes(params, dims_j)
-    out = np.empty((n_h, n_a, n_s, n_t, 3), dtype=np.float32)
+    channels = media.channels
+    out = np.empty((n_h, n_a, n_s, n_t, channels), dtype=np.float32)
 
-    tasks = _ray_batches(n_h, n_a, HIGHER_NODES * n_s * n_t * 2)
+    tasks = _ray_batches(n_h, n_a, HIGHER_NODES * n_s * n_t * 2 * max(1, channels // 3))
 
     def fill(task):
         i, rays = tasks[task]
         cos_view_i, above_i = cos_view[i][rays], above[rays]
         n_rays = len(cos_view_i)
-        nodes = view_ray_nodes(params, heights[i], cos_view_i, above_i, HIGHER_NODES, HIGHER_SUBSTEPS,
+        nodes = view_ray_nodes(params, media, heights[i], cos_view_i, above_i, HIGHER_NODES, HIGHER_SUBSTEPS,
                                HIGHER_UNIFORM_SHARE)
         r = params.earth_radius + heights[i]
         node_h = nodes.radius - params.earth_radius
@@ -414,20 +436,20 @@ def _integrate_order(params, dims_j, j_table, progress: Progress, stage: str):
                                      above_horizon=np.broadcast_to(above_i[:, None], node_h.shape))
         ih, wh = axis_weights(xh, n_h)
         ia, wa = axis_weights(xa, n_a)
-        # Slab of J~ at each node's (height, view zenith), sun-view major: (a, K, t, s, 6).
+        # Slab of J~ at each node's (height, view zenith), sun-view major: (a, K, t, s, 2C).
         slab = sum((w_h * w_a)[..., None, None, None] * j_table[ih + dh, ia + da].transpose(0, 1, 3, 2, 4)
                    for dh, w_h in ((0, 1 - wh), (1, wh)) for da, w_a in ((0, 1 - wa), (1, wa)))
         ct = par.clamp_sun_view(cos_view_i[:, None, None], cos_sun[None, :, None], cos_sun_view[None, None, :])
         cos_node = _node_cos_sun(r, nodes, cos_sun, ct)                                      # (a, K, s, t)
         i_s, w_s = axis_weights(par.sun_zenith_to_x(cos_node, n_s), n_s)
-        packed, width = packed_rows(slab.reshape(-1, 6))
+        packed, width = packed_rows(slab.reshape(-1, 2 * channels))
         base = ((np.arange(n_rays)[:, None, None, None] * HIGHER_NODES + np.arange(HIGHER_NODES)[None, :, None, None]) * n_t
                 + np.arange(n_t)[None, None, None, :]) * n_s                                  # (a, K, 1, t)
         lo = gather(packed, width, base + i_s)
-        j_nodes = lo + (gather(packed, width, base + i_s + 1) - lo) * w_s[..., None]         # (a, K, s, t, 8)
-        ray_r = np.einsum("akstc,akc->astc", j_nodes[..., :3], nodes.weight_rayleigh)
-        ray_m = np.einsum("akstc,akc->astc", j_nodes[..., 3:6], nodes.weight_mie)
-        out[i, rays] = (params.rayleigh * ray_r + params.mie * ray_m) / rayleigh_phase(ct)[..., None]
+        j_nodes = lo + (gather(packed, width, base + i_s + 1) - lo) * w_s[..., None]         # (a, K, s, t, 2C)
+        ray_r = np.einsum("akstc,akc->astc", j_nodes[..., :channels], nodes.weight_rayleigh)
+        ray_m = np.einsum("akstc,akc->astc", j_nodes[..., channels:2 * channels], nodes.weight_mie)
+        out[i, rays] = (media.rayleigh * ray_r + media.mie * ray_m) / rayleigh_phase(ct)[..., None]
 
     _parallel_rows(fill, len(tasks), progress, stage)
     return out
@@ -449,22 +471,52 @@ def grid_to_grid_matrices(params, src_dims, dst_dims):
     return mats
 
 
-def bake_higher_orders(params: AtmosphereParams, dims, single_n: np.ndarray, orders: int,
-                       progress: Progress) -> Tuple[np.ndarray, list]:
-    """Sum of orders 2..N, divided by the Rayleigh phase like ``single_n``; per-order timings."""
+def spectral_resample_matrix(source: Media, target: Media) -> np.ndarray:
+    """(C_target, C_source): radiance at the target's wavelengths, linear in wavelength between
+    the source's (the identity for equal or three-channel media)."""
+    if source.wavelengths_nm == target.wavelengths_nm or not source.wavelengths_nm:
+        return np.eye(source.channels)
+    src = np.asarray(source.wavelengths_nm)
+    return np.stack([np.interp(target.wavelengths_nm, src, row) for row in np.eye(len(src))], axis=1)
+
+
+def bake_higher_orders(params: AtmosphereParams, media: Media, dims, single_rayleigh: np.ndarray,
+                       single_mie: np.ndarray, orders: int, progress: Progress,
+                       single_media: Optional[Media] = None, optical_depth: Optional[np.ndarray] = None
+                       ) -> Tuple[np.ndarray, list]:
+    """Sum of orders 2..N divided by the Rayleigh phase and the ground-ray scale, in RGB, from
+    single scattering without
+    phases at the wavelengths of ``single_media`` (default: ``media``); the orders themselves are
+    integrated at the (fewer) wavelengths of ``media``: they are smooth in wavelength. Per-order
+    timings."""
     dims_j = higher_order_dims(dims)
-    prev = resample_separable(single_n, grid_to_grid_matrices(params, dims, dims_j) + [None])
+    to_order_grid = grid_to_grid_matrices(params, dims, dims_j) + [None]
+    spectral = spectral_resample_matrix(single_media or media, media).T.astype(np.float32)
+    prev = resample_separable(single_rayleigh @ spectral, to_order_grid)
+    prev_mie = resample_separable(single_mie @ spectral, to_order_grid)
     mu, mu_w = sphere_zenith_grid(params.atmosphere_height, params.earth_radius)
     kernels = phase_kernels(params, mu, mu_w, SPHERE_AZIMUTHS)
     total = np.zeros_like(prev)
     timings = []
+    ground, irradiance = None, None
+    if params.ground_albedo > 0.0 and optical_depth is not None:
+        heights, _, _, cos_sun, _ = par.grid_axes(params, dims_j)
+        ground = GroundSource(params, media, optical_depth, heights, mu, cos_sun, dims_j)
+        irradiance = ground.direct
     for order in range(2, orders + 1):
         t0 = time.perf_counter()
-        j_table = _scattered_radiance(params, dims_j, prev, mu, kernels, SPHERE_AZIMUTHS)
-        prev = _integrate_order(params, dims_j, j_table, progress, f"scattering order {order}")
+        # Order n scatters order n - 1 and the ground lit by order n - 2 (the sun for n = 2).
+        j_table = _scattered_radiance(params, dims_j, prev, mu, kernels, SPHERE_AZIMUTHS, prev_mie,
+                                      None if ground is None else (ground, irradiance))
+        if ground is not None and order < orders:
+            irradiance = ground.sky_irradiance(prev, prev_mie)
+        prev, prev_mie = _integrate_order(params, media, dims_j, j_table, progress, f"scattering order {order}"), None
         total += prev
         timings.append((f"order {order}", time.perf_counter() - t0))
-    higher = resample_separable(total, grid_to_grid_matrices(params, dims_j, dims) + [None])
+    # Colour conversion first: it commutes with the resampling and leaves 3 channels, not C.
+    # The ground-ray scale is divided out before resampling across heights (see geometry).
+    total_rgb = np.maximum(total @ media.to_rgb.T.astype(np.float32), 0.0) / par.grid_scale(params, dims_j)
+    higher = resample_separable(total_rgb, grid_to_grid_matrices(params, dims_j, dims) + [None])
     return higher, timings
 
 
@@ -503,26 +555,35 @@ def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", ord
 
     t0 = time.perf_counter()
     optical_depth = bake_optical_depth(params, *res.optical_depth, progress=report)
-    trans = transmittance_table(params, optical_depth)
     timings["optical depth"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    single = bake_single(params, res.scattering, trans, report)
+    media = bake_media(params)
+    single_rayleigh, single_mie = bake_single(params, media, res.scattering, optical_depth, report)
     timings["single scattering"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
     if orders >= 2:
-        higher, order_times = bake_higher_orders(params, res.scattering, single, orders, report)
+        higher, order_times = bake_higher_orders(params, bake_media(params, "higher"), res.scattering,
+                                                 single_rayleigh, single_mie, orders, report, single_media=media,
+                                                 optical_depth=optical_depth)
         timings.update(order_times)
     else:
-        higher = np.zeros_like(single)
+        higher = np.zeros(res.scattering + (3,), np.float32)
     timings["higher orders (total)"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    # Bilinear cell arithmetic leaves values of ~1e-20 below zero where radiance is zero.
-    single, higher = np.maximum(single, 0.0), np.maximum(higher, 0.0)
+    # Bilinear cell arithmetic leaves values of ~1e-20 below zero where radiance is zero; the
+    # colour conversion's negative lobes can do the same to a near-black spectrum.
+    to_rgb = media.to_rgb.T.astype(np.float32)
+    scale = par.grid_scale(params, res.scattering).astype(np.float32)
+    single, single_mie = (np.maximum(table @ to_rgb, 0.0) / scale for table in (single_rayleigh, single_mie))
+    higher = np.maximum(higher, 0.0)
+    timings["colour conversion"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
     luts = Luts(params, single, higher, optical_depth, np.zeros((res.ambient, 3), np.float32),
-                orders=int(orders), timings=timings)
+                single_mie=single_mie, orders=int(orders), timings=timings)
     luts.ambient = bake_ambient(luts, res.ambient)
     timings["ambient skylight"] = time.perf_counter() - t0
     report("ambient skylight", 1.0)

@@ -3,9 +3,11 @@
 Files (all RGB 32-bit float, rows stored top to bottom as EXR does; the arrays here are
 flipped so that row 0 is the bottom row, as Blender's image.pixels has it):
 
-    single_scattering.exr        4D atlas (see atlas.py), radiance / Rayleigh phase
-    higher_order_scattering.exr  4D atlas, orders 2..N
+    single_scattering.exr        4D atlas (see atlas.py), Rayleigh single scattering / Rayleigh phase
+    single_mie_scattering.exr    4D atlas, Mie single scattering without its phase function
+    higher_order_scattering.exr  4D atlas, orders 2..N / Rayleigh phase
     multiple_scattering.exr      4D atlas, single + higher
+    (all four divided by the ground-ray scale, lut_gen.sampling)
     optical_depth.exr            (height x cos zenith): R, G, B = Rayleigh, Mie, ozone net density (m)
     ambient_skylight.exr         1 row: irradiance per unit sun against cos sun zenith
 
@@ -31,12 +33,14 @@ from .atmosphere import AtmosphereParams
 from .sampling import Luts
 
 # Bump when the meaning or packing of the stored data changes; old caches then read as stale.
-LAYOUT_VERSION = 1
+# 2: single Mie scattering apart, ground-ray scale, spectral params.
+LAYOUT_VERSION = 2
 # Bump when the baker's numerics change (the same params then give different tables).
-BAKER_VERSION = 1
+BAKER_VERSION = 2
 
 FILES = {
     "single": "single_scattering.exr",
+    "single_mie": "single_mie_scattering.exr",
     "higher": "higher_order_scattering.exr",
     "multiple": "multiple_scattering.exr",
     "optical_depth": "optical_depth.exr",
@@ -100,6 +104,7 @@ def _require_openexr():
 def _images(luts: Luts) -> dict:
     return {
         "single": atlas.pack(luts.single),
+        "single_mie": atlas.pack(luts.single_mie),
         "higher": atlas.pack(luts.higher),
         "multiple": atlas.pack(luts.multiple),
         "optical_depth": np.ascontiguousarray(luts.optical_depth.transpose(1, 0, 2)),  # x = height
@@ -140,6 +145,7 @@ def check_output_directory(directory, key: str, *, overwrite: bool = False) -> P
 def read_header_params(directory):
     """(AtmosphereParams, dims) of the bake in ``directory`` from a header alone (cheap)."""
     header = _read_header(Path(directory) / FILES["multiple"])
+    _check_layout(directory, header)
     try:
         params = AtmosphereParams.from_dict(json.loads(header[PREFIX + "params"])).validate()
         return params, tuple(json.loads(header[PREFIX + "dims"]))
@@ -160,7 +166,8 @@ def save(luts: Luts, directory, *, overwrite: bool = False) -> Path:
         PREFIX + "params": json.dumps(luts.params.to_dict(), sort_keys=True),
         PREFIX + "dims": json.dumps(list(luts.dims)),
         PREFIX + "orders": str(luts.orders),
-        PREFIX + "storage": "scattering tables hold radiance per unit sun divided by the Rayleigh phase",
+        PREFIX + "storage": ("scattering tables hold linear Rec.709 radiance per unit sun divided by the Rayleigh "
+                             "phase (single Mie: by nothing) and by the ground-ray scale"),
     }
     staged = []
     try:
@@ -182,6 +189,14 @@ def save(luts: Luts, directory, *, overwrite: bool = False) -> Path:
             if os.path.exists(tmp):
                 os.unlink(tmp)
     return directory
+
+
+def _check_layout(directory, header: dict):
+    version = header.get(PREFIX + "layout_version")
+    if version != str(LAYOUT_VERSION):
+        raise LutError(f"{directory} holds tables of layout version {version}; this version reads layout "
+                       f"{LAYOUT_VERSION} (spectral tables with single Mie scattering apart): re-bake into an "
+                       "empty directory, or pass --overwrite to replace them")
 
 
 def _existing_key(directory: Path):
@@ -224,9 +239,7 @@ def load(directory, *, params: Optional[AtmosphereParams] = None) -> Luts:
     for name, filename in FILES.items():
         headers[name], images[name] = _read_image(directory / filename)
     first = headers["multiple"]
-    version = first.get(PREFIX + "layout_version")
-    if version != str(LAYOUT_VERSION):
-        raise LutError(f"{directory} has layout version {version}, this lut_gen reads {LAYOUT_VERSION}; re-bake it")
+    _check_layout(directory, first)
     keys = {name: h.get(PREFIX + "bake_key") for name, h in headers.items()}
     if len(set(keys.values())) != 1:
         raise LutError(f"{directory} mixes files of different bakes ({keys}); re-bake it")
@@ -239,6 +252,7 @@ def load(directory, *, params: Optional[AtmosphereParams] = None) -> Luts:
         orders = int(first[PREFIX + "orders"])
         luts = Luts(params=stored,
                     single=atlas.unpack(images["single"], dims),
+                    single_mie=atlas.unpack(images["single_mie"], dims),
                     higher=atlas.unpack(images["higher"], dims),
                     multiple=atlas.unpack(images["multiple"], dims),
                     optical_depth=np.ascontiguousarray(images["optical_depth"].transpose(1, 0, 2)),

@@ -78,9 +78,9 @@ def resample_matrix(x, n: int) -> np.ndarray:
 
 def resample_separable(table: np.ndarray, matrices) -> np.ndarray:
     """Apply one resample matrix per axis (None keeps an axis) to a (*axes, C) table."""
-    out = np.asarray(table, dtype=np.float64)
+    out = np.asarray(table, dtype=np.float32)
     for axis, m in enumerate(matrices):
         if m is None:
             continue
-        out = np.moveaxis(np.tensordot(m, out, axes=([1], [axis])), 0, axis)
-    return out.astype(np.float32)
+        out = np.moveaxis(np.tensordot(m.astype(np.float32), out, axes=([1], [axis])), 0, axis)
+    return np.ascontiguousarray(out, dtype=np.float32)

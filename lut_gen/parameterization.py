@@ -19,6 +19,8 @@ import math
 
 import numpy as np
 
+from .geometry import ground_ray_scale
+
 ALPHA_POWER = 0.2          # eq. (5)
 THETA_POWER = 1.5          # eq. (7)
 SUN_ZENITH_MIN_COS = -0.1975   # eq. (6): sun more than ~101 deg from zenith clamps here
@@ -132,6 +134,20 @@ def grid_axes(params, dims):
     cos_sun = x_to_sun_zenith(np.arange(n_s), n_s)
     cos_sun_view = x_to_sun_view(np.arange(n_t), n_t)
     return heights, cos_view, above[0], cos_sun, cos_sun_view
+
+
+def look_up_scale(params, height_m, cos_view_zenith, above_horizon):
+    """(...) factor a 4D look-up is multiplied by: geometry.ground_ray_scale of the ray."""
+    h = np.clip(np.asarray(height_m, dtype=np.float64), 0.0, params.atmosphere_height)
+    r = params.earth_radius + h
+    return ground_ray_scale(r, np.asarray(cos_view_zenith, dtype=np.float64), ~np.asarray(above_horizon),
+                            params.earth_radius)
+
+
+def grid_scale(params, dims):
+    """(n_h, n_a, 1, 1, 1) look_up_scale at the 4D table's nodes."""
+    heights, cos_view, above, _, _ = grid_axes(params, dims)
+    return look_up_scale(params, heights[:, None], cos_view, above[None, :])[:, :, None, None, None]
 
 
 # -- 1D tables: optical depth and ambient skylight (texel-centre convention) ---------------

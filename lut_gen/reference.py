@@ -696,3 +696,36 @@ def sphere_phase_integrals(params: AtmosphereParams, height_m: float, view_dir,
 
 
 __all__ += ["second_order", "second_order_source", "sphere_phase_integrals", "SECOND_ORDER_DEFAULTS"]
+
+
+# -- per wavelength ------------------------------------------------------------------------------
+#
+# The bake of spectral params integrates at a few wavelengths and converts them to RGB. The
+# reference integrates every 10 nm from 360 to 830 nm (48 wavelengths, as Bruneton 2017's
+# reference) with the three-channel integrators above, three wavelengths at a time, and converts
+# with the same solar spectrum and colour-matching functions (lut_gen.spectrum.rgb_weights).
+
+REFERENCE_WAVELENGTHS_NM = tuple(float(v) for v in range(360, 831, 10))
+
+
+def per_wavelength(integrator, params: AtmosphereParams, *args, wavelengths_nm=REFERENCE_WAVELENGTHS_NM,
+                   **kwargs) -> np.ndarray:
+    """(..., len(wavelengths)) ``integrator(params, *args, **kwargs)`` (a three-channel reference
+    function) evaluated per wavelength on the spectral media of ``params``."""
+    from . import spectrum
+    lam = np.asarray(wavelengths_nm, dtype=np.float64)
+    padded = np.concatenate([lam, np.full(-len(lam) % 3, lam[-1])])
+    parts = [integrator(spectrum.triple_params(params, padded[i:i + 3]), *args, **kwargs)
+             for i in range(0, len(padded), 3)]
+    return np.concatenate(parts, axis=-1)[..., :len(lam)]
+
+
+def spectral(integrator, params: AtmosphereParams, *args, wavelengths_nm=REFERENCE_WAVELENGTHS_NM,
+             **kwargs) -> np.ndarray:
+    """(..., 3) linear Rec.709 per unit extraterrestrial sun of a three-channel reference
+    integrator run per wavelength; the integrator itself for Sample 2013 (non-spectral) params."""
+    from . import spectrum
+    if not params.spectral:
+        return integrator(params, *args, **kwargs)
+    radiance = per_wavelength(integrator, params, *args, wavelengths_nm=wavelengths_nm, **kwargs)
+    return radiance @ spectrum.rgb_weights(wavelengths_nm).T

@@ -25,9 +25,9 @@ def build_world(pkg, bake_dir, sun_direction, camera_height):
     images = import_module(pkg.__name__ + ".addon.scene.luts").load_images(bake_dir)
     luts = pkg.lut_gen.load(bake_dir)
     nodes = import_module(pkg.__name__ + ".addon.nodes")
-    nodes.build_lookup_group(images["multiple"], luts.dims, luts.params)
+    nodes.build_lookup_group(images["multiple"], luts.dims, luts.params, mie_image=images["single_mie"])
     skylight = import_module(pkg.__name__ + ".addon.scene.skylight")
-    sky = nodes.build_sky_group(images["optical_depth"], luts.params, skylight.ensure_image())
+    sky = nodes.build_sky_group(images["optical_depth"], luts.params, skylight.ensure_image(), images["ambient"])
     world = bpy.data.worlds.new("OLS Test World")
     scene.world = world
     world.use_nodes = True
@@ -56,7 +56,8 @@ def test_sky_render_matches_numpy_twin(addon_package, bake_dir, tmp_path, sun_el
 
     d = panorama_directions(128, 64, supersample=4)
     cos_sun_view = d @ np.array(sun)
-    twin = luts.sky_radiance(camera_height, d[..., 2], sun[2], cos_sun_view).mean(axis=2) * STRENGTH * SCALE
+    twin = (luts.sky_radiance(camera_height, d[..., 2], sun[2], cos_sun_view) * SCALE
+            + luts.ground_radiance(camera_height, d[..., 2], sun[2], cos_sun_view)).mean(axis=2) * STRENGTH
     save_png(tmp_path / "sky.png", rendered, exposure=1.0 / max(np.percentile(twin, 90), 1e-9))
 
     near_sun = (cos_sun_view > math.cos(math.radians(3.0))).any(axis=2)   # disc pixels: twin has no disc

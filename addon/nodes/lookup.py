@@ -3,15 +3,19 @@
 Inputs are world quantities; the group applies eqs. (4)-(7) (Listing 2's horizon split for the
 view zenith), filters the view- and sun-zenith axes in hardware inside a tile and blends the
 four tiles of the neighbouring height and sun-view nodes by hand, then restores the Rayleigh
-phase the tables are divided by. Its numpy twin is lut_gen.Luts.sky_radiance.
+phase the tables are divided by, adds the single Mie table times the exact Mie phase, and
+multiplies ground-hitting rays by their ground-ray scale. Its numpy twin is
+lut_gen.Luts.sky_radiance.
 """
 from __future__ import annotations
 
 import math
 
+from ...lut_gen import geometry
 from ...lut_gen import parameterization as par
 from ...lut_gen.atmosphere import RAYLEIGH_PHASE_NORM
 from .builder import group_io, new_group
+from .optical import distance_to_ground
 
 GROUP_NAME = "OLS Scattering Lookup"
 TAN_PHI = math.tan(1.26 * 1.1)       # eq. (6), Bruneton's form
@@ -57,6 +61,22 @@ def sun_view_coordinate(g, cos_sun_view, n_t):
     return g.mul(g.mul_add(shaped, 0.5, 0.5), n_t - 1)
 
 
+def mie_phase(g, cos_theta, mie_g):
+    """Cornette-Shanks phase function (lut_gen.atmosphere.mie_phase)."""
+    g2 = mie_g * mie_g
+    norm = 3.0 / (8.0 * math.pi) * (1.0 - g2) / (2.0 + g2)
+    peak = g.math("POWER", g.mul_add(cos_theta, -2.0 * mie_g, 1.0 + g2), 1.5)
+    return g.div(g.mul(g.mul_add(cos_theta, cos_theta, 1.0), norm), peak)
+
+
+def ground_ray_scale(g, h, cos_view, above, earth_radius):
+    """lut_gen.geometry.ground_ray_scale for the half of the view axis the look-up used."""
+    distance = g.math("MAXIMUM", distance_to_ground(g, h, cos_view, earth_radius), geometry.MIN_GROUND_RAY_M)
+    length = geometry.GROUND_RAY_SCALE_M
+    scale = g.mul(g.sub(1.0, g.math("EXPONENT", g.div(distance, -length))), length)
+    return g.lerp(scale, 1.0, above)
+
+
 def even_odd_nodes(g, x, n):
     """The even and the odd node next to x with their linear-interpolation weights.
 
@@ -84,9 +104,10 @@ def lower_node(g, x, n):
 COMPOSITOR_GROUP_NAME = "OLS Scattering Lookup (Compositor)"
 
 
-def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=False, name=None):
+def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=False, name=None, mie_image=None):
     """(Re)build the group ``name`` (default: GROUP_NAME or COMPOSITOR_GROUP_NAME) for the
-    scattering atlas ``image`` with table sizes ``dims``.
+    scattering atlas ``image`` with table sizes ``dims``; ``mie_image``: the single Mie atlas
+    for the tables that include single scattering (None for "higher").
 
     ``filtering``: "HARDWARE" blends the two in-tile axes with the texture unit (4 fetches;
     Cycles, which has no mipmaps). "MANUAL" fetches texel centres with Closest interpolation and
@@ -115,34 +136,40 @@ def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=Fal
     x_s = sun_zenith_coordinate(g, gin.outputs["Cos Sun Zenith"], n_s)
     x_t = sun_view_coordinate(g, gin.outputs["Cos Sun View"], n_t)
 
-    def fetch(u_texel, v_texel, interpolation):
+    def fetch(atlas, u_texel, v_texel, interpolation):
         """Texture value at texel coordinates (pixel units, centres at +0.5)."""
         uv = g.combine(g.div(u_texel, width), g.div(v_texel, height), 1.0)   # z: Map UV's alpha
-        return g.image(image, uv, interpolation=interpolation)
+        return g.image(atlas, uv, interpolation=interpolation)
 
     if filtering == "HARDWARE":
-        def tile(i_h, i_t):
-            return fetch(g.mul_add(i_t, n_a, g.add(x_a, 0.5)), g.mul_add(i_h, n_s, g.add(x_s, 0.5)), "Linear")
+        def tile(atlas, i_h, i_t):
+            return fetch(atlas, g.mul_add(i_t, n_a, g.add(x_a, 0.5)), g.mul_add(i_h, n_s, g.add(x_s, 0.5)), "Linear")
     else:
         a0, w_a = lower_node(g, x_a, n_a)
         s0, w_s = lower_node(g, x_s, n_s)
 
-        def tile(i_h, i_t):
+        def tile(atlas, i_h, i_t):
             u0 = g.mul_add(i_t, n_a, g.add(a0, 0.5))
             v0 = g.mul_add(i_h, n_s, g.add(s0, 0.5))
             u1, v1 = g.add(u0, 1.0), g.add(v0, 1.0)
-            low = g.vlerp(fetch(u0, v0, "Closest"), fetch(u1, v0, "Closest"), w_a)
-            high = g.vlerp(fetch(u0, v1, "Closest"), fetch(u1, v1, "Closest"), w_a)
+            low = g.vlerp(fetch(atlas, u0, v0, "Closest"), fetch(atlas, u1, v0, "Closest"), w_a)
+            high = g.vlerp(fetch(atlas, u0, v1, "Closest"), fetch(atlas, u1, v1, "Closest"), w_a)
             return g.vlerp(low, high, w_s)
 
-    stored = None
-    for i_h, w_h in even_odd_nodes(g, x_h, n_h):
-        for i_t, w_t in even_odd_nodes(g, x_t, n_t):
-            term = g.vscale(tile(i_h, i_t), g.mul(w_h, w_t))
-            stored = term if stored is None else g.vmath("ADD", stored, term)
+    def interpolated(atlas):
+        total = None
+        for i_h, w_h in even_odd_nodes(g, x_h, n_h):
+            for i_t, w_t in even_odd_nodes(g, x_t, n_t):
+                term = g.vscale(tile(atlas, i_h, i_t), g.mul(w_h, w_t))
+                total = term if total is None else g.vmath("ADD", total, term)
+        return total
+
     c_t = gin.outputs["Cos Sun View"]
-    phase = g.mul(g.mul_add(c_t, c_t, 1.0), RAYLEIGH_PHASE_NORM)
-    g.links.new(g.vscale(stored, phase), gout.inputs["Radiance"])
+    radiance = g.vscale(interpolated(image), g.mul(g.mul_add(c_t, c_t, 1.0), RAYLEIGH_PHASE_NORM))
+    if mie_image is not None:
+        radiance = g.vmath("ADD", radiance, g.vscale(interpolated(mie_image), mie_phase(g, c_t, params.mie_g)))
+    scale = ground_ray_scale(g, h, gin.outputs["Cos View Zenith"], above, params.earth_radius)
+    g.links.new(g.vscale(radiance, scale), gout.inputs["Radiance"])
     return tree
 
 

@@ -3,7 +3,10 @@ groups (the sample's texture coordinates: (h / H_atm, c * 0.5 + 0.5) and (c * 0.
 coordinates carry z = 1: the compositor's Map UV reads z as alpha."""
 from __future__ import annotations
 
+import math
+
 from ...lut_gen import aerial as aerial_twin
+from ...lut_gen import geometry
 from ...lut_gen.atmosphere import OZONE_HALF_WIDTH_M, OZONE_PEAK_HEIGHT_M
 
 
@@ -52,9 +55,10 @@ def horizon_safe_cos(g, height, cos_zenith, n_heights, n_cos, params):
 
 def transmittance_from_net_density(g, rayleigh, mie, ozone, params):
     """exp(-(beta_R D_R + beta_M^ext D_M + beta_O D_O)) per channel."""
-    optical_depth = g.vmath("ADD", g.vscale(tuple(params.rayleigh), rayleigh),
-                            g.vmath("ADD", g.vscale(tuple(params.mie_extinction), mie),
-                                    g.vscale(tuple(params.ozone_extinction), ozone)))
+    extinction = params.extinction_matrix()      # RGB rows (spectral params: fitted, see lut_gen.spectrum)
+    optical_depth = g.vmath("ADD", g.vscale(tuple(extinction[0]), rayleigh),
+                            g.vmath("ADD", g.vscale(tuple(extinction[1]), mie),
+                                    g.vscale(tuple(extinction[2]), ozone)))
     channels = [g.math("EXPONENT", g.mul(g.math("MINIMUM", c, 80.0), -1.0)) for c in g.separate(optical_depth)]
     return g.combine(*channels)
 
@@ -68,6 +72,35 @@ def transmittance_to_top(g, image, height, cos_zenith, params):
 def ambient_skylight(g, image, cos_sun_zenith):
     """E_sky per unit sun for the sun's zenith cosine. Twin: lut_gen.Luts.ambient_skylight."""
     return g.image(image, g.combine(g.mul_add(cos_sun_zenith, 0.5, 0.5), 0.5, 1.0))
+
+
+def distance_to_ground(g, height, cos_view, earth_radius):
+    """lut_gen.geometry.distance_to_ground, in its cancellation-free (float32-safe) form."""
+    radius = g.add(height, earth_radius)
+    rise = g.mul(height, g.add(height, 2.0 * earth_radius))
+    r_cos = g.mul(radius, cos_view)
+    root = g.math("SQRT", g.math("MAXIMUM", g.sub(g.mul(r_cos, r_cos), rise), 0.0))
+    return g.div(rise, g.math("MAXIMUM", g.sub(root, r_cos), geometry.GROUND_DISTANCE_MIN_DENOMINATOR))
+
+
+def ground_radiance(g, optical_image, ambient_image, height, cos_view, cos_sun, cos_sun_view, params):
+    """Light the Lambertian ground reflects toward the viewer per unit sun, 0 for rays that miss
+    it: T(view) * albedo / pi * (direct sun + ambient skylight) at the ground point. Twin:
+    lut_gen.Luts.ground_radiance."""
+    radius = g.add(height, params.earth_radius)
+    distance = g.math("MINIMUM", distance_to_ground(g, height, cos_view, params.earth_radius),
+                      2.0 * math.sqrt(params.top_radius ** 2 - params.earth_radius ** 2))
+    cos_sun_at = g.clamp(g.div(g.mul_add(radius, cos_sun, g.mul(distance, cos_sun_view)), params.earth_radius), -1.0, 1.0)
+    cos_back = g.clamp(g.div(g.mul_add(radius, cos_view, distance), -params.earth_radius), 0.0, 1.0)
+    from_ground = net_density_to_top(g, optical_image, 0.0, cos_back, params)
+    from_viewer = net_density_to_top(g, optical_image, height, g.mul(cos_view, -1.0), params)
+    view = transmittance_from_net_density(
+        g, *[g.math("MAXIMUM", g.sub(a, b), 0.0) for a, b in zip(from_ground, from_viewer)], params)
+    lit_cos = g.math("MAXIMUM", cos_sun_at, 0.0)
+    direct = g.vscale(transmittance_to_top(g, optical_image, 0.0, lit_cos, params), lit_cos)
+    lit = g.vmath("ADD", direct, ambient_skylight(g, ambient_image, cos_sun_at))
+    weight = g.mul(below_horizon(g, height, cos_view, params), params.ground_albedo / math.pi)
+    return g.vscale(g.vmath("MULTIPLY", view, lit), weight)
 
 
 def below_horizon(g, height, cos_view, params):

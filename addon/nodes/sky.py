@@ -1,7 +1,9 @@
 """"OLS Sky": the world shader. Sky radiance from the multiple-scattering atlas for the view
 direction and the camera altitude, times the extraterrestrial sun strength and the scattering
-scale, plus the sun disc attenuated by the atmosphere (camera rays only: the Sun lamp already
-lights the scene). Twin: lut_gen.Luts.sky_radiance (+ transmittance_to_top for the disc).
+scale, plus the lit ground below the horizon (times the sun strength, like the terrain) and the
+limb-darkened sun disc attenuated by the atmosphere (camera rays only: the Sun lamp already
+lights the scene). Twin: lut_gen.Luts.sky_radiance + ground_radiance (+ transmittance_to_top and
+lut_gen.sun_disc for the disc).
 
 The local zenith is +Z: the camera is assumed within a few km of the origin, where the Earth's
 curvature tilts the zenith by less than 0.05 deg.
@@ -10,9 +12,10 @@ from __future__ import annotations
 
 import math
 
+from ...lut_gen import sun_disc
 from .builder import group_io, new_group
 from .lookup import GROUP_NAME as LOOKUP_GROUP
-from .optical import transmittance_to_top
+from .optical import ground_radiance, transmittance_to_top
 
 GROUP_NAME = "OLS Sky"
 INPUTS = [
@@ -25,7 +28,18 @@ INPUTS = [
 ]
 
 
-def build_sky_group(optical_depth_image, params, skylight_image):
+def limb_darkened_disc(g, cos_sun_view, angle):
+    """lut_gen.sun_disc.limb_profile / solid angle: disc radiance per unit irradiance."""
+    radius = g.mul(angle, 0.5)
+    rho = g.div(g.math("ARCCOSINE", g.clamp(cos_sun_view, -1.0, 1.0)), g.math("MAXIMUM", radius, 1e-9))
+    mu = g.math("SQRT", g.math("MAXIMUM", g.sub(1.0, g.mul(rho, rho)), 0.0))
+    inside = g.math("LESS_THAN", rho, 1.0)
+    solid_angle = g.math("MAXIMUM", g.mul(g.sub(1.0, g.math("COSINE", radius)), 2 * math.pi), 1e-12)
+    per_channel = [g.mul(g.math("POWER", mu, alpha), (alpha + 2.0) / 2.0) for alpha in sun_disc.LIMB_DARKENING_ALPHA]
+    return g.vscale(g.combine(*per_channel), g.div(inside, solid_angle))
+
+
+def build_sky_group(optical_depth_image, params, skylight_image, ambient_image):
     """``skylight_image``: the sky for the current sun and camera height as an equirectangular
     panorama (scene/skylight.py keeps it current). Camera rays evaluate the exact 4D look-up;
     every other ray (lighting, reflections, EEVEE's world probe) reads the panorama, which costs
@@ -48,14 +62,14 @@ def build_sky_group(optical_depth_image, params, skylight_image):
         g.feed(lookup.inputs[name], value)
     sky = g.vscale(lookup.outputs["Radiance"], sky_scale)
 
-    # Sun disc: radiance = irradiance / solid angle of a disc of the lamp's apparent size.
-    radius = g.mul(gin.outputs["Sun Angle"], 0.5)
-    solid_angle = g.mul(g.sub(1.0, g.math("COSINE", radius)), 2 * math.pi)
-    in_disc = g.math("GREATER_THAN", cos_sun_view, g.math("COSINE", radius))
-    disc = g.vscale(transmittance_to_top(g, optical_depth_image, height, cos_sun, params),
-                    g.div(g.mul(strength, in_disc), g.math("MAXIMUM", solid_angle, 1e-9)))
+    # Sun disc: the attenuated irradiance spread over a limb-darkened disc of the lamp's size.
+    disc = g.vmath("MULTIPLY", transmittance_to_top(g, optical_depth_image, height, cos_sun, params),
+                   g.vscale(limb_darkened_disc(g, cos_sun_view, gin.outputs["Sun Angle"]), strength))
+    ground = g.vscale(ground_radiance(g, optical_depth_image, ambient_image, height, cos_view, cos_sun,
+                                      cos_sun_view, params), strength)
+    camera_color = g.vmath("ADD", g.vmath("ADD", sky, disc), ground)
     camera_view = g.node("ShaderNodeBackground")
-    g.feed(camera_view.inputs["Color"], g.vmath("ADD", sky, disc))
+    g.feed(camera_view.inputs["Color"], camera_color)
 
     # Other rays: the panorama; diffuse/scatter rays only when "Light Scene" (glossy always).
     azimuth = g.math("ARCTAN2", view_x, view_y)
@@ -66,13 +80,14 @@ def build_sky_group(optical_depth_image, params, skylight_image):
     light_path = g.node("ShaderNodeLightPath")
     lit = g.math("MAXIMUM", light_path.outputs["Is Glossy Ray"], gin.outputs["Light Scene"])
     lighting = g.node("ShaderNodeBackground")
-    g.feed(lighting.inputs["Color"], g.vscale(panorama.outputs["Color"], g.mul(sky_scale, lit)))
+    surroundings = g.vmath("ADD", g.vscale(panorama.outputs["Color"], sky_scale), ground)
+    g.feed(lighting.inputs["Color"], g.vscale(surroundings, lit))
 
     mix = g.node("ShaderNodeMixShader")
     g.feed(mix.inputs["Fac"], light_path.outputs["Is Camera Ray"])
     g.links.new(lighting.outputs[0], mix.inputs[1])
     g.links.new(camera_view.outputs[0], mix.inputs[2])
-    g.links.new(g.vmath("ADD", sky, disc), gout.inputs["Color"])
+    g.links.new(camera_color, gout.inputs["Color"])
     g.links.new(mix.outputs[0], gout.inputs["Background"])
     return tree
 

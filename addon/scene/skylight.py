@@ -49,28 +49,35 @@ def ensure_image():
     return image
 
 
-def _luts_from_image(key: str, multiple_image, params, dims) -> Luts:
+def _table_from_image(image, dims) -> np.ndarray:
+    width, height = image.size
+    pixels = np.empty(width * height * 4, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    return atlas.unpack(pixels.reshape(height, width, 4)[..., :3], dims)
+
+
+def _luts_from_images(key: str, images, params, dims) -> Luts:
+    """Luts holding the multiple and single Mie tables read back from their images."""
     if key not in _tables:
-        width, height = multiple_image.size
-        pixels = np.empty(width * height * 4, dtype=np.float32)
-        multiple_image.pixels.foreach_get(pixels)
-        table = atlas.unpack(pixels.reshape(height, width, 4)[..., :3], dims)
+        multiple_image, mie_image = images
+        table = _table_from_image(multiple_image, dims)
         empty = np.zeros((2, 2, 3), np.float32)
         _tables.clear()
         _tables[key] = Luts(params, single=table, higher=np.zeros_like(table), optical_depth=empty,
-                            ambient=empty[0], multiple=table)
+                            ambient=empty[0], multiple=table, single_mie=_table_from_image(mie_image, dims))
     return _tables[key]
 
 
-def update(key: str, multiple_image, params, dims, sun_direction, camera_height: float, force=False) -> bool:
-    """Recompute the panorama when the sun, the camera height or the bake changed."""
+def update(key: str, images, params, dims, sun_direction, camera_height: float, force=False) -> bool:
+    """Recompute the panorama when the sun, the camera height or the bake changed; ``images``:
+    the multiple and single Mie atlases."""
     image = ensure_image()
     sun = np.asarray(sun_direction, dtype=np.float64)
     previous = _state.get(image.name)
     if (not force and previous is not None and previous[0] == key
             and np.abs(previous[1] - sun).max() < SUN_TOLERANCE and abs(previous[2] - camera_height) < HEIGHT_TOLERANCE_M):
         return False
-    radiance = sky_panorama(_luts_from_image(key, multiple_image, params, dims), sun, camera_height)
+    radiance = sky_panorama(_luts_from_images(key, images, params, dims), sun, camera_height)
     rgba = np.ones(radiance.shape[:2] + (4,), dtype=np.float32)
     rgba[..., :3] = radiance
     image.pixels.foreach_set(rgba.ravel())

@@ -12,6 +12,7 @@ import bpy
 
 from ... import lut_gen
 from .. import nodes
+from ...lut_gen.sampling import TABLES_WITH_MIE
 from . import compositor, drivers, frame_update, luts, shadow_maps, skylight, sun as sun_lamps
 
 WORLD_NAME = "OLS World"
@@ -41,11 +42,13 @@ def build_groups(bake_dir, engine="CYCLES"):
     (images, atmosphere params)."""
     images = luts.load_images(bake_dir)
     params, dims = lut_gen.exr_io.read_header_params(bake_dir)
-    nodes.build_lookup_group(images["multiple"], dims, params, nodes.lookup.filtering_for_engine(engine))
-    nodes.build_sky_group(images["optical_depth"], params, skylight.ensure_image())
+    nodes.build_lookup_group(images["multiple"], dims, params, nodes.lookup.filtering_for_engine(engine),
+                             mie_image=images["single_mie"])
+    nodes.build_sky_group(images["optical_depth"], params, skylight.ensure_image(), images["ambient"])
     nodes.build_terrain_group(images["optical_depth"], images["ambient"], params)
     for table in nodes.COMPOSITOR_TABLES:
-        nodes.build_lookup_group(images[table], dims, params, compositor=True, name=nodes.lookup_group_name(table))
+        nodes.build_lookup_group(images[table], dims, params, compositor=True, name=nodes.lookup_group_name(table),
+                                 mie_image=images["single_mie"] if table in TABLES_WITH_MIE else None)
     nodes.build_segment_transmittance_group(images["optical_depth"], params)
     for table in nodes.COMPOSITOR_TABLES:
         nodes.build_section_group(table, params)
@@ -180,8 +183,9 @@ class BakeInfo:
     def __init__(self, key: str):
         self.key = key
         self.multiple = bpy.data.images.get(luts.image_name("multiple", key))
+        self.single_mie = bpy.data.images.get(luts.image_name("single_mie", key))
         optical_depth = bpy.data.images.get(luts.image_name("optical_depth", key))
-        if self.multiple is None or optical_depth is None:
+        if self.multiple is None or self.single_mie is None or optical_depth is None:
             raise FileNotFoundError(f"the images of bake {key} are not loaded; run Set Up Scene")
         self.params, self.dims = lut_gen.exr_io.read_header_params(Path(bpy.path.abspath(self.multiple.filepath)).parent)
         self.origin_transmittance = sun_lamps.OriginTransmittance(optical_depth, self.params)
@@ -218,7 +222,8 @@ def refresh(scene, force=False):
     compositor.sync_settings(scene)
     frame_update.write_frame_values(scene)
     height = scene.camera.matrix_world.translation.z if scene.camera else 0.0
-    skylight.update(info.key, info.multiple, info.params, info.dims, sun_lamps.direction_to_sun(sun), height, force)
+    skylight.update(info.key, (info.multiple, info.single_mie), info.params, info.dims,
+                    sun_lamps.direction_to_sun(sun), height, force)
 
 
 def forget_caches():
