@@ -11,7 +11,8 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty
 
-from ..lut_gen.atmosphere import DEFAULT_MIE_SCATTERING, DEFAULT_RAYLEIGH_SCATTERING, AtmosphereParams
+from ..lut_gen.atmosphere import (DEFAULT_GROUND_ALBEDO, DEFAULT_MIE_SCATTERING, DEFAULT_RAYLEIGH_SCATTERING,
+                                  AtmosphereParams, preset)
 
 CONTROL_SETS = ("BASIC", "ADDITIONAL", "TONE_MAPPING")
 
@@ -52,6 +53,9 @@ PROPERTIES_BY_SET = {
         "mie_color",
         "aerosol_density",
         "aerosol_absorption",
+        "atmosphere_preset",
+        "ground_albedo",
+        "ozone_column",
         "animate_sun",
     ],
     "TONE_MAPPING": [
@@ -73,6 +77,9 @@ _LIVE_NOW = {
     "mie_color",
     "aerosol_density",
     "aerosol_absorption",
+    "atmosphere_preset",
+    "ground_albedo",
+    "ozone_column",
     "animate_sun",
     "middle_gray",
     "white_point",
@@ -408,6 +415,35 @@ class OLSSettings(bpy.types.PropertyGroup):
         default=0.1, min=0.0, max=5.0,
         update=_rebake_soon,
     )
+    atmosphere_preset: EnumProperty(
+        name="Atmosphere",
+        description="The media the tables are baked for (the tables are re-baked)",
+        items=[
+            ("CLEAR_SKY", "Clear Sky (spectral)",
+             "Spectral bake converted with the CIE observer, ozone layer and a lit ground: the colours of a "
+             "real clear sky, blue twilight zenith included"),
+            ("SAMPLE_2013", "Sample 2013",
+             "The sample's own media: three wavelengths used directly as RGB, no ozone, black ground "
+             "(reproduces the seed's figures)"),
+        ],
+        default="CLEAR_SKY",
+        update=_rebake_soon,
+    )
+    ground_albedo: FloatProperty(
+        name="Ground Albedo",
+        description="Reflectance of the ground under the atmosphere: lights the sky from below and is the "
+                    "ground seen below the horizon (0.2: vegetation and soil; Clear Sky preset only; "
+                    "the tables are re-baked)",
+        default=DEFAULT_GROUND_ALBEDO, min=0.0, max=1.0,
+        update=_rebake_soon,
+    )
+    ozone_column: FloatProperty(
+        name="Ozone (DU)",
+        description="Ozone column in Dobson units (300: the global mean; 0: no ozone). Its Chappuis band "
+                    "keeps the twilight zenith blue (Clear Sky preset only; the tables are re-baked)",
+        default=300.0, min=0.0, max=600.0,
+        update=_rebake_soon,
+    )
     animate_sun: BoolProperty(
         name="Animate Sun",
         description="Animate the sun across the sky",
@@ -485,10 +521,11 @@ def _f32_color(color):
 def atmosphere_params(settings) -> AtmosphereParams:
     """Table parameters (``lut_gen.AtmosphereParams``) for an ``OLSSettings``.
 
-    Aerosol density and absorption map one to one. With custom scattering coefficients on, the
-    Rayleigh coefficients are ``max(default Rayleigh) * rayleigh_color`` (so the default colour
-    gives the default coefficients) and the Mie coefficients ``2e-5 * mie_color``; off, both are
-    the defaults. Everything else keeps ``AtmosphereParams`` defaults.
+    The Atmosphere preset picks the starting point (lut_gen.atmosphere.PRESETS); aerosol density
+    and absorption map one to one; ground albedo and ozone column apply to the Clear Sky preset
+    (Sample 2013 has neither). With custom scattering coefficients on, the Rayleigh coefficients
+    are ``max(default Rayleigh) * rayleigh_color`` (so the default colour gives the default
+    coefficients) and the Mie coefficients ``2e-5 * mie_color``; off, both are the defaults.
     """
     rayleigh = DEFAULT_RAYLEIGH_SCATTERING
     mie = DEFAULT_MIE_SCATTERING
@@ -499,11 +536,19 @@ def atmosphere_params(settings) -> AtmosphereParams:
         color = _f32_color(settings.mie_color)
         if color != _f32_color(DEFAULT_MIE_COLOR):
             mie = tuple(MIE_SCATTERING_SCALE * c for c in color)
-    return AtmosphereParams(
+    if settings.atmosphere_preset == "SAMPLE_2013":
+        return preset("sample-2013", rayleigh_scattering=rayleigh, mie_scattering=mie,
+                      aerosol_density=_f32_value(settings.aerosol_density),
+                      aerosol_absorption=_f32_value(settings.aerosol_absorption))
+    return preset(
+        "clear-sky",
         rayleigh_scattering=rayleigh,
         mie_scattering=mie,
         aerosol_density=_f32_value(settings.aerosol_density),
         aerosol_absorption=_f32_value(settings.aerosol_absorption),
+        ground_albedo=_f32_value(settings.ground_albedo),
+        ozone=_f32_value(settings.ozone_column) > 0.0,
+        ozone_column=_f32_value(settings.ozone_column),
     )
 
 

@@ -10,10 +10,12 @@ OPERATORS = (
     ("ols.render", "Render", 'RENDER_STILL'),
 )
 
-# Controls whose row is enabled only while another control is on.
+# Controls whose row is enabled only while a condition on the settings holds.
 ENABLED_BY = {
-    "rayleigh_color": "use_custom_scattering_coeffs",
-    "mie_color": "use_custom_scattering_coeffs",
+    "rayleigh_color": lambda settings: settings.use_custom_scattering_coeffs,
+    "mie_color": lambda settings: settings.use_custom_scattering_coeffs,
+    "ground_albedo": lambda settings: settings.atmosphere_preset == "CLEAR_SKY",
+    "ozone_column": lambda settings: settings.atmosphere_preset == "CLEAR_SKY",
 }
 
 
@@ -51,7 +53,7 @@ def draw_settings(layout, settings):
         for name in run:
             if name in ENABLED_BY:
                 row = sub.row()
-                row.enabled = bool(getattr(settings, ENABLED_BY[name]))
+                row.enabled = bool(ENABLED_BY[name](settings))
                 row.prop(settings, name)
             else:
                 sub.prop(settings, name)

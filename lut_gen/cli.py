@@ -7,7 +7,7 @@ import sys
 import time
 from pathlib import Path
 
-from .atmosphere import AtmosphereParams
+from .atmosphere import PRESETS, AtmosphereParams, preset
 from .bake import RESOLUTIONS, bake
 from .cache import cached_bake, default_cache_root, key_for
 from .aerial import MULTIPLE_MODES, SINGLE_MODES
@@ -46,7 +46,10 @@ def _flag(name: str) -> str:
 
 def _add_param_options(parser: argparse.ArgumentParser):
     """One option per AtmosphereParams field, defaults from the dataclass."""
-    group = parser.add_argument_group("atmosphere parameters (defaults: the sample's media)")
+    group = parser.add_argument_group("atmosphere parameters (defaults: the clear-sky preset)")
+    group.add_argument("--preset", default="clear-sky", metavar="NAME",
+                       help=f"starting point for the options below: {', '.join(PRESETS)} (default clear-sky; "
+                            "sample-2013 is the sample's three wavelengths as RGB, no ozone, no ground)")
     defaults = AtmosphereParams()
     for f in dataclasses.fields(AtmosphereParams):
         default = getattr(defaults, f.name)
@@ -66,7 +69,7 @@ def params_from_args(args) -> AtmosphereParams:
         value = getattr(args, f.name)
         if value is not None:
             changes[f.name] = tuple(value) if isinstance(value, list) else value
-    return dataclasses.replace(AtmosphereParams(), **changes).validate()
+    return dataclasses.replace(preset(args.preset), **changes).validate()
 
 
 def parse_resolution(text: str):

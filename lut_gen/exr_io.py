@@ -36,7 +36,7 @@ from .sampling import Luts
 # 2: single Mie scattering apart, ground-ray scale, spectral params.
 LAYOUT_VERSION = 2
 # Bump when the baker's numerics change (the same params then give different tables).
-BAKER_VERSION = 2
+BAKER_VERSION = 3
 
 FILES = {
     "single": "single_scattering.exr",
@@ -137,6 +137,9 @@ def check_output_directory(directory, key: str, *, overwrite: bool = False) -> P
         raise LutError(f"output directory {directory} is not writable; choose another with --out")
     existing = _existing_key(directory)
     if existing not in (None, key) and not overwrite:
+        header = _header_or_empty(directory / FILES["multiple"])
+        if header:
+            _check_layout(directory, header)
         raise LutError(f"{directory} holds a different bake ({existing}); choose another directory "
                        "or pass --overwrite to replace it")
     return directory
@@ -204,6 +207,13 @@ def _existing_key(directory: Path):
         return read_key(directory)
     except LutError:
         return "unreadable files"
+
+
+def _header_or_empty(path: Path) -> dict:
+    try:
+        return _read_header(path)
+    except LutError:
+        return {}
 
 
 def _read_header(path: Path) -> dict:

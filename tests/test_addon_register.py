@@ -92,7 +92,7 @@ def test_every_control_is_a_property(addon_package):
     assert props.LATER_ISSUE <= set(names)
     assert set(names) - props.LATER_ISSUE == {
         "scattering_scale", "use_custom_scattering_coeffs", "rayleigh_color", "mie_color",
-        "aerosol_density", "aerosol_absorption", "animate_sun",
+        "aerosol_density", "aerosol_absorption", "atmosphere_preset", "ground_albedo", "ozone_column", "animate_sun",
         "middle_gray", "white_point", "luminance_saturation", "auto_exposure", "tone_mapping_operator",
         "light_adaptation", "enable_light_scattering", "lighting_only", "enable_light_shafts",
         "shadow_map_resolution", "num_integration_steps", "single_scattering_mode", "multiple_scattering_mode",
@@ -128,6 +128,8 @@ def test_defaults_and_ranges(scene, addon_package):
     assert tuple(ols.mie_color) == (1.0, 1.0, 1.0)
     assert ols.aerosol_density == pytest.approx(1.0)
     assert ols.aerosol_absorption == pytest.approx(0.1)
+    assert ols.atmosphere_preset == "CLEAR_SKY"
+    assert ols.ground_albedo == pytest.approx(0.2) and ols.ozone_column == pytest.approx(300.0)
     assert ols.middle_gray == pytest.approx(0.18)
     assert ols.white_point == pytest.approx(3.0)
     assert ols.luminance_saturation == pytest.approx(1.0)
@@ -146,6 +148,7 @@ def test_defaults_and_ranges(scene, addon_package):
         assert (rna[name].hard_min, rna[name].hard_max) == (lo, hi), name
     floats = {"refinement_threshold": (0.001, 0.5), "cascade_partitioning_factor": (0.0, 1.0),
               "aerosol_density": (0.1, 5.0), "aerosol_absorption": (0.0, 5.0),
+              "ground_albedo": (0.0, 1.0), "ozone_column": (0.0, 600.0),
               "middle_gray": (0.01, 1.0), "white_point": (0.01, 10.0),
               "luminance_saturation": (0.1, 2.0)}
     for name, (lo, hi) in floats.items():
@@ -188,6 +191,16 @@ def test_atmosphere_params(scene, addon_package):
     ols.aerosol_absorption = 0.3
     params = props.atmosphere_params(ols)
     assert params == lut_gen.AtmosphereParams(aerosol_density=2.3, aerosol_absorption=0.3)
+
+    # Ground albedo and ozone reach the tables; the Sample 2013 preset is the sample's media.
+    ols.ground_albedo = 0.35
+    ols.ozone_column = 0.0
+    params = props.atmosphere_params(ols)
+    assert params.ground_albedo == 0.35 and params.ozone is False and params.spectral
+    ols.atmosphere_preset = "SAMPLE_2013"
+    params = props.atmosphere_params(ols)
+    assert params == lut_gen.AtmosphereParams(spectral=False, ozone=False, ground_albedo=0.0,
+                                              aerosol_density=2.3, aerosol_absorption=0.3)
 
 
 # -- panel ----------------------------------------------------------------------------------
@@ -279,6 +292,11 @@ def test_panel(scene, addon_package):
     log = _draw(panel, scene)
     colours = [e for e in log if e[0] == "prop" and e[1] in ("rayleigh_color", "mie_color")]
     assert [e[3] for e in colours] == [True, True]
+    # The Sample 2013 preset has no ground and no ozone: their rows are disabled.
+    scene.ols.atmosphere_preset = "SAMPLE_2013"
+    log = _draw(panel, scene)
+    spectral_only = [e for e in log if e[0] == "prop" and e[1] in ("ground_albedo", "ozone_column")]
+    assert [e[3] for e in spectral_only] == [False, False]
 
 
 def test_panel_poll_without_scene(addon_package):

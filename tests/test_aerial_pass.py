@@ -45,7 +45,8 @@ def test_aerial_perspective_pass_matches_twin(addon_package, tmp_path, monkeypat
     directory = import_module(pkg.__name__ + ".addon.ops").bake_if_needed(pkg.lut_gen.AtmosphereParams(), "draft")
     luts = pkg.lut_gen.load(directory)
     images = luts_mod.load_images(directory)
-    nodes.build_lookup_group(images["multiple"], luts.dims, luts.params, compositor=True)
+    nodes.build_lookup_group(images["multiple"], luts.dims, luts.params, compositor=True,
+                             mie_image=images["single_mie"])
     aerial_group = nodes.build_aerial_group(images["optical_depth"], luts.params)
     camera = np.array(scene.camera.matrix_world.translation)
     sun = sun_mod.direction_to_sun(sun_mod.find_sun(scene))

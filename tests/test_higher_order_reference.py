@@ -22,7 +22,10 @@ from lut_gen.atmosphere import (
     rayleigh_phase,
 )
 
-PARAMS = AtmosphereParams()
+# The sample's three-channel media with a black ground: the reference integrates exactly
+# these. The spectral media and the ground are checked against the Monte Carlo path tracer
+# (tests/test_multiple_scattering_mc.py).
+PARAMS = AtmosphereParams(spectral=False, ozone=False, ground_albedo=0.0)
 
 
 def ray(height_m, view_zenith_deg, sun_zenith_deg, azimuth_deg):
@@ -53,6 +56,7 @@ MEDIAN_TOLERANCE = 0.05
 
 def thin(factor):
     return AtmosphereParams(
+        spectral=False, ozone=False, ground_albedo=0.0,
         rayleigh_scattering=tuple(x * factor for x in PARAMS.rayleigh_scattering),
         mie_scattering=tuple(x * factor for x in PARAMS.mie_scattering),
     )

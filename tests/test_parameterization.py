@@ -59,15 +59,19 @@ def test_sun_zenith_mapping_is_bruneton_eq6():
     np.testing.assert_allclose(par.sun_zenith_to_x(par.x_to_sun_zenith(x, n), n), x, atol=1e-6)
 
 
-def test_sun_view_mapping_is_eq7():
+def test_sun_view_mapping_is_uniform_in_angle():
+    """Eq. (7) with power 1: with the Mie phase applied at look-up (no forward peak left in the
+    tables) nodes evenly spaced in angle (12 deg at 16 nodes) beat eq. (7)'s power 1.5, whose
+    30 deg gap around 90 deg put kinks into the twilight sky."""
     n = 16
     assert par.sun_view_to_x(1.0, n) == pytest.approx(0.0)
     assert par.sun_view_to_x(0.0, n) == pytest.approx(0.5 * (n - 1))
     assert par.sun_view_to_x(-1.0, n) == pytest.approx(n - 1)
-    gamma = 0.25    # theta = 45 deg: u = 0.5 - 0.5 * (2 * 0.25) ** 1.5
-    assert par.sun_view_to_x(np.cos(gamma * np.pi), n) == pytest.approx((0.5 - 0.5 * 0.5 ** 1.5) * (n - 1))
+    assert par.sun_view_to_x(np.cos(np.radians(45.0)), n) == pytest.approx(0.25 * (n - 1))
     x = np.arange(n, dtype=float)
     np.testing.assert_allclose(par.sun_view_to_x(par.x_to_sun_view(x, n), n), x, atol=1e-6)
+    gaps = np.diff(np.degrees(np.arccos(par.x_to_sun_view(x, n))))
+    np.testing.assert_allclose(gaps, 12.0, rtol=1e-9)
 
 
 def test_clamp_sun_view_keeps_geometry_consistent():

@@ -19,8 +19,10 @@ from lut_gen.atmosphere import (
     rayleigh_phase,
 )
 
-PARAMS = AtmosphereParams()
-OZONE = AtmosphereParams(ozone=True)
+# The three-channel integrators are checked on the sample's media; the per-wavelength wrapper
+# at the end of this file covers spectral params.
+PARAMS = AtmosphereParams(spectral=False, ozone=False, ground_albedo=0.0)
+OZONE = AtmosphereParams(spectral=False, ozone=True, ground_albedo=0.0)
 R = PARAMS.earth_radius
 TOP = PARAMS.atmosphere_height
 
@@ -32,6 +34,7 @@ def horizon_cos(h):
 def thin(params, factor=1e-9):
     """Same media, scattering scaled down until the atmosphere is optically thin."""
     return AtmosphereParams(
+        spectral=False, ozone=False, ground_albedo=0.0,
         rayleigh_scattering=tuple(x * factor for x in params.rayleigh_scattering),
         mie_scattering=tuple(x * factor for x in params.mie_scattering),
         rayleigh_scale_height=params.rayleigh_scale_height,
@@ -377,3 +380,19 @@ def test_single_scattering_matches_3d_brute_force(h, mu_v, mu_s, nu):
     want = brute_single_scattering(OZONE, h, mu_v, mu_s, nu)
     assert np.all(want > 0)
     np.testing.assert_allclose(got, want, rtol=1e-4)
+
+
+def test_spectral_reference_is_the_three_channel_one_per_wavelength():
+    """ref.spectral: each wavelength is the three-channel integrator on that wavelength's
+    media, and the sum is converted with the white-balanced weights (a flat spectrum -> 1, 1, 1)."""
+    from lut_gen import spectrum
+    spectral = AtmosphereParams()
+    lam = (450.0, 550.0, 650.0)
+    args = (1000.0, 0.3, 0.7, 0.5)
+    per_wavelength = ref.per_wavelength(ref.single_scattering, spectral, *args, wavelengths_nm=lam)
+    three = ref.single_scattering(spectrum.triple_params(spectral, lam), *args)
+    np.testing.assert_allclose(per_wavelength, three, rtol=1e-12)
+    flat = ref.spectral(lambda params, x: np.ones(np.shape(x) + (3,)), spectral, np.zeros(2))
+    np.testing.assert_allclose(flat, 1.0, rtol=1e-9)
+    sample = ref.spectral(ref.single_scattering, PARAMS, *args)
+    np.testing.assert_array_equal(sample, ref.single_scattering(PARAMS, *args))

@@ -180,7 +180,7 @@ def test_rebake_swaps_new_tables_into_a_wired_scene(addon):
     assert new_key != old_key
     lookup = bpy.data.node_groups["OLS Scattering Lookup"]
     used = {n.image.name for n in lookup.nodes if n.type == "TEX_IMAGE"}
-    assert used == {f"OLS multiple {new_key[:8]}"}
+    assert used == {f"OLS multiple {new_key[:8]}", f"OLS single_mie {new_key[:8]}"}
     # The wiring survived the rebuild: same group, links and drivers.
     assert sky_node.node_tree == bpy.data.node_groups["OLS Sky"]
     assert sky_node.outputs["Background"].is_linked
@@ -230,8 +230,9 @@ def test_world_lighting_matches_the_sky_it_shows(addon, tmp_path, facing):
     d = np.stack([np.sqrt(1 - z * z) * np.cos(phi), np.sqrt(1 - z * z) * np.sin(phi), z], axis=-1)
     to_sun = sun_mod.direction_to_sun(sun)
     sky = luts.sky_radiance(camera.location.z, d[:, 2], to_sun[2], d @ to_sun)   # panorama's height
-    scale = sun.data.energy * scene.ols.scattering_scale
-    irradiance = (sky * np.clip(d @ facing, 0, None)[:, None]).sum(axis=0) * 4 * np.pi / n * scale
+    ground = luts.ground_radiance(camera.location.z, d[:, 2], to_sun[2], d @ to_sun)
+    world = (sky * scene.ols.scattering_scale + ground) * sun.data.energy
+    irradiance = (world * np.clip(d @ facing, 0, None)[:, None]).sum(axis=0) * 4 * np.pi / n
     want = irradiance / np.pi
     got = rendered[8:24, 8:24].reshape(-1, 3).mean(axis=0)
     np.testing.assert_allclose(got, want, rtol=0.05)
