@@ -13,22 +13,24 @@ SUN_INTENSITY = 10.0
 SCATTERING_SCALE = 0.5
 MIDDLE_GRAY = 0.18
 SUN_ANGULAR_RADIUS = np.radians(0.545)   # drawn a little larger than the real 0.27 deg
-DEFAULT_SUN_ELEVATIONS = (45.0, 12.0, 3.0, -3.0)
+DEFAULT_SUN_ELEVATIONS = (45.0, 12.0, 3.0, -3.0, -6.0)
 RGB_LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
 def sky_panorama(luts: Luts, sun_elevation_deg: float, width: int = 512, height: int = 128,
                  camera_height_m: float = 2.0) -> np.ndarray:
-    """(height, width, 3) linear radiance of the sky above the horizon: azimuth 0..360 deg
-    left to right (sun at 180 deg, the centre), elevation 90 deg (top) to 0 deg (bottom)."""
+    """(height, width, 3) linear radiance of the sky and the lit ground below it: azimuth
+    0..360 deg left to right (sun at 180 deg, the centre), elevation 90 deg (top) to -10 deg
+    (bottom)."""
     az = (np.arange(width) + 0.5) / width * 2 * np.pi - np.pi           # 0 at the sun
-    el = (1.0 - (np.arange(height) + 0.5) / height) * (np.pi / 2)
+    el = np.radians(90.0 - (np.arange(height) + 0.5) / height * 100.0)
     el, az = np.meshgrid(el, az, indexing="ij")
     cos_view = np.sin(el)
     sun_el = np.radians(sun_elevation_deg)
     cos_sun = np.sin(sun_el)
     cos_sun_view = np.sin(el) * np.sin(sun_el) + np.cos(el) * np.cos(sun_el) * np.cos(az)
     sky = luts.sky_radiance(camera_height_m, cos_view, cos_sun, cos_sun_view) * (SUN_INTENSITY * SCATTERING_SCALE)
+    sky += luts.ground_radiance(camera_height_m, cos_view, cos_sun, cos_sun_view) * SUN_INTENSITY
     sun_disc = np.arccos(np.clip(cos_sun_view, -1, 1)) < SUN_ANGULAR_RADIUS
     sun = luts.transmittance_to_top(camera_height_m, cos_sun)[None, None, :] * SUN_INTENSITY * 50.0
     return np.where(sun_disc[..., None], sky + sun, sky)

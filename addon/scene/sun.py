@@ -29,7 +29,12 @@ def find_sun(scene):
     return None
 
 
-def create_sun(scene, elevation_deg=8.0, azimuth_deg=0.0):
+# A scene without a Sun lamp gets an afternoon sun: high enough that the sky and the lit ground
+# light a first test object (Blender's default cube) well; the sample scene sets its own 8 deg.
+DEFAULT_ELEVATION_DEG = 35.0
+
+
+def create_sun(scene, elevation_deg=DEFAULT_ELEVATION_DEG, azimuth_deg=0.0):
     data = bpy.data.lights.new(SUN_NAME, "SUN")
     data.energy = EXTRATERRESTRIAL_STRENGTH
     data.angle = SUN_ANGLE
