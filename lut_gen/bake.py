@@ -42,7 +42,7 @@ from .atmosphere import AtmosphereParams, mie_phase, ozone_density, rayleigh_pha
 from .spectrum import Media, bake_media
 from .ground import GroundSource
 from .geometry import clustered_nodes, distance_to_sphere_exit, radius_along, ray_length
-from .interpolation import axis_weights, gather, interpolate, packed_rows, resample_matrix, resample_separable
+from .interpolation import axis_weights, gather, packed_rows, resample_matrix, resample_separable
 from .sampling import EARTH_HIT_NET_DENSITY, Luts
 
 Progress = Callable[[str, float], None]
@@ -445,14 +445,46 @@ def _integrate_order(params, media: Media, dims_j, j_table, progress: Progress, 
         packed, width = packed_rows(slab.reshape(-1, 2 * channels))
         base = ((np.arange(n_rays)[:, None, None, None] * HIGHER_NODES + np.arange(HIGHER_NODES)[None, :, None, None]) * n_t
                 + np.arange(n_t)[None, None, None, :]) * n_s                                  # (a, K, 1, t)
-        lo = gather(packed, width, base + i_s)
-        j_nodes = lo + (gather(packed, width, base + i_s + 1) - lo) * w_s[..., None]         # (a, K, s, t, 2C)
+        j_nodes = geometric_lerp(gather(packed, width, base + i_s), gather(packed, width, base + i_s + 1),
+                                 w_s[..., None])                                           # (a, K, s, t, 2C)
         ray_r = np.einsum("akstc,akc->astc", j_nodes[..., :channels], nodes.weight_rayleigh)
         ray_m = np.einsum("akstc,akc->astc", j_nodes[..., channels:2 * channels], nodes.weight_mie)
         out[i, rays] = (media.rayleigh * ray_r + media.mie * ray_m) / rayleigh_phase(ct)[..., None]
 
     _parallel_rows(fill, len(tasks), progress, stage)
     return out
+
+
+# Below this fraction of a node pair's larger value, geometric interpolation falls back to 0.
+GEOMETRIC_FLOOR = np.float32(1e-9)
+
+
+def geometric_lerp(low: np.ndarray, high: np.ndarray, weight) -> np.ndarray:
+    """low^(1-w) high^w: interpolation along the sun zenith on the coarse grid of the higher
+    orders. At twilight their radiance falls by a constant factor per degree of sun depression;
+    linear interpolation across the 32 sun nodes of that grid overestimated it (the second
+    order 7% at sun -4 deg against the brute-force reference), geometric interpolation follows
+    it (1%) and equals linear interpolation where the sky changes slowly."""
+    floor = np.maximum(np.maximum(low, high) * GEOMETRIC_FLOOR, np.float32(1e-30))
+    log_low, log_high = np.log(np.maximum(low, floor)), np.log(np.maximum(high, floor))
+    return np.exp(log_low + (log_high - log_low) * weight).astype(np.float32)
+
+
+def resample_sun_geometric(table: np.ndarray, matrices) -> np.ndarray:
+    """resample_separable with the sun-zenith axis (2) interpolated geometrically."""
+    out = resample_separable(table, [m if axis != 2 else None for axis, m in enumerate(matrices)])
+    if matrices[2] is None:
+        return out
+    i0, w = axis_weights_of(matrices[2])
+    low, high = np.take(out, i0, axis=2), np.take(out, i0 + 1, axis=2)
+    return geometric_lerp(low, high, w[None, None, :, None, None])
+
+
+def axis_weights_of(matrix: np.ndarray):
+    """(lower node, weight of the upper node) per row of a linear resample matrix."""
+    n = matrix.shape[1]
+    i0 = np.minimum(np.argmax(matrix > 0, axis=1), n - 2)
+    return i0, matrix[np.arange(len(i0)), i0 + 1].astype(np.float32)
 
 
 def grid_to_grid_matrices(params, src_dims, dst_dims):
@@ -492,8 +524,8 @@ def bake_higher_orders(params: AtmosphereParams, media: Media, dims, single_rayl
     dims_j = higher_order_dims(dims)
     to_order_grid = grid_to_grid_matrices(params, dims, dims_j) + [None]
     spectral = spectral_resample_matrix(single_media or media, media).T.astype(np.float32)
-    prev = resample_separable(single_rayleigh @ spectral, to_order_grid)
-    prev_mie = resample_separable(single_mie @ spectral, to_order_grid)
+    prev = resample_sun_geometric(single_rayleigh @ spectral, to_order_grid)
+    prev_mie = resample_sun_geometric(single_mie @ spectral, to_order_grid)
     mu, mu_w = sphere_zenith_grid(params.atmosphere_height, params.earth_radius)
     kernels = phase_kernels(params, mu, mu_w, SPHERE_AZIMUTHS)
     total = np.zeros_like(prev)
@@ -516,7 +548,7 @@ def bake_higher_orders(params: AtmosphereParams, media: Media, dims, single_rayl
     # Colour conversion first: it commutes with the resampling and leaves 3 channels, not C.
     # The ground-ray scale is divided out before resampling across heights (see geometry).
     total_rgb = np.maximum(total @ media.to_rgb.T.astype(np.float32), 0.0) / par.grid_scale(params, dims_j)
-    higher = resample_separable(total_rgb, grid_to_grid_matrices(params, dims_j, dims) + [None])
+    higher = resample_sun_geometric(total_rgb, grid_to_grid_matrices(params, dims_j, dims) + [None])
     return higher, timings
 
 

@@ -36,7 +36,7 @@ from .sampling import Luts
 # 2: single Mie scattering apart, ground-ray scale, spectral params.
 LAYOUT_VERSION = 2
 # Bump when the baker's numerics change (the same params then give different tables).
-BAKER_VERSION = 3
+BAKER_VERSION = 4
 
 FILES = {
     "single": "single_scattering.exr",

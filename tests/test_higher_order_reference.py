@@ -21,6 +21,7 @@ from lut_gen.atmosphere import (
     rayleigh_density,
     rayleigh_phase,
 )
+from rays import ray
 
 # The sample's three-channel media with a black ground: the reference integrates exactly
 # these. The spectral media and the ground are checked against the Monte Carlo path tracer
@@ -28,12 +29,6 @@ from lut_gen.atmosphere import (
 PARAMS = AtmosphereParams(spectral=False, ozone=False, ground_albedo=0.0)
 
 
-def ray(height_m, view_zenith_deg, sun_zenith_deg, azimuth_deg):
-    """(height, cos view zenith, cos sun zenith, cos sun-view) for a view and a sun direction
-    azimuth_deg apart."""
-    tv, ts, az = (math.radians(x) for x in (view_zenith_deg, sun_zenith_deg, azimuth_deg))
-    cos_sun_view = math.cos(tv) * math.cos(ts) + math.sin(tv) * math.sin(ts) * math.cos(az)
-    return (float(height_m), math.cos(tv), math.cos(ts), cos_sun_view)
 
 
 RAYS = {

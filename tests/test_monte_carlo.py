@@ -15,6 +15,7 @@ from lut_gen import reference as ref
 from lut_gen import spectrum
 from lut_gen.atmosphere import AtmosphereParams
 from lut_gen.monte_carlo import radiance_by_order
+from rays import ray
 
 PARAMS = AtmosphereParams(spectral=False, ozone=False, ground_albedo=0.0)
 # The default clear sky (ozone, absorbing aerosols, a grey ground) at the three sample wavelengths.
@@ -26,12 +27,6 @@ SINGLE_MARGIN = 0.02
 SECOND_MARGIN = 0.03
 
 
-def ray(height_m, view_zenith_deg, sun_zenith_deg, azimuth_deg):
-    """(height, cos view zenith, cos sun zenith, cos sun-view) for a view and a sun direction
-    azimuth_deg apart."""
-    tv, ts, az = (math.radians(x) for x in (view_zenith_deg, sun_zenith_deg, azimuth_deg))
-    cos_sun_view = math.cos(tv) * math.cos(ts) + math.sin(tv) * math.sin(ts) * math.cos(az)
-    return (float(height_m), math.cos(tv), math.cos(ts), cos_sun_view)
 
 
 RAYS = {

@@ -44,6 +44,7 @@ import pytest
 
 from lut_gen import AtmosphereParams, spectrum
 from lut_gen.monte_carlo import radiance_by_order
+from rays import ray_by_elevation as ray
 
 pytestmark = pytest.mark.slow
 
@@ -60,12 +61,6 @@ HIGHER_MEDIAN = 0.10
 GROUND_MAX = 0.05
 
 
-def ray(height_m, view_elevation_deg, sun_elevation_deg, azimuth_deg):
-    """(height, cos view zenith, cos sun zenith, cos sun-view) for view and sun elevations
-    (degrees above the horizontal) azimuth_deg apart."""
-    ev, es, az = (math.radians(x) for x in (view_elevation_deg, sun_elevation_deg, azimuth_deg))
-    cos_sun_view = math.sin(ev) * math.sin(es) + math.cos(ev) * math.cos(es) * math.cos(az)
-    return (float(height_m), math.sin(ev), math.sin(es), cos_sun_view)
 
 
 # name: (height m, view elevation, sun elevation, azimuth from the sun), degrees.
