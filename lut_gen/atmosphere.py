@@ -72,6 +72,14 @@ class AtmosphereParams:
     spectral: bool = True
     ground_albedo: float = DEFAULT_GROUND_ALBEDO
 
+    def __post_init__(self):
+        # Triples given as lists (JSON, argparse) become tuples: params must stay hashable
+        # (spectrum.rgb_coefficients caches per params) and compare equal either way.
+        for name in ("rayleigh_scattering", "mie_scattering", "ozone_absorption"):
+            value = getattr(self, name)
+            if isinstance(value, list):
+                object.__setattr__(self, name, tuple(value))
+
     # -- validation -------------------------------------------------------
     def validate(self) -> "AtmosphereParams":
         """Raise ValueError naming the first bad field; return self when valid."""

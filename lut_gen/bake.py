@@ -39,10 +39,11 @@ import numpy as np
 
 from . import parameterization as par
 from .atmosphere import AtmosphereParams, mie_phase, ozone_density, rayleigh_phase
-from .spectrum import Media, bake_media
+from .spectrum import Media, bake_media, spectral_resample_matrix
 from .ground import GroundSource
 from .geometry import clustered_nodes, distance_to_sphere_exit, radius_along, ray_length
-from .interpolation import axis_weights, gather, packed_rows, resample_matrix, resample_separable
+from .interpolation import (axis_weights, gather, geometric_lerp, packed_rows, resample_matrix,
+                            resample_separable, resample_sun_geometric)
 from .sampling import EARTH_HIT_NET_DENSITY, Luts
 
 Progress = Callable[[str, float], None]
@@ -455,38 +456,6 @@ def _integrate_order(params, media: Media, dims_j, j_table, progress: Progress, 
     return out
 
 
-# Below this fraction of a node pair's larger value, geometric interpolation falls back to 0.
-GEOMETRIC_FLOOR = np.float32(1e-9)
-
-
-def geometric_lerp(low: np.ndarray, high: np.ndarray, weight) -> np.ndarray:
-    """low^(1-w) high^w: interpolation along the sun zenith on the coarse grid of the higher
-    orders. At twilight their radiance falls by a constant factor per degree of sun depression;
-    linear interpolation across the 32 sun nodes of that grid overestimated it (the second
-    order 7% at sun -4 deg against the brute-force reference), geometric interpolation follows
-    it (1%) and equals linear interpolation where the sky changes slowly."""
-    floor = np.maximum(np.maximum(low, high) * GEOMETRIC_FLOOR, np.float32(1e-30))
-    log_low, log_high = np.log(np.maximum(low, floor)), np.log(np.maximum(high, floor))
-    return np.exp(log_low + (log_high - log_low) * weight).astype(np.float32)
-
-
-def resample_sun_geometric(table: np.ndarray, matrices) -> np.ndarray:
-    """resample_separable with the sun-zenith axis (2) interpolated geometrically."""
-    out = resample_separable(table, [m if axis != 2 else None for axis, m in enumerate(matrices)])
-    if matrices[2] is None:
-        return out
-    i0, w = axis_weights_of(matrices[2])
-    low, high = np.take(out, i0, axis=2), np.take(out, i0 + 1, axis=2)
-    return geometric_lerp(low, high, w[None, None, :, None, None])
-
-
-def axis_weights_of(matrix: np.ndarray):
-    """(lower node, weight of the upper node) per row of a linear resample matrix."""
-    n = matrix.shape[1]
-    i0 = np.minimum(np.argmax(matrix > 0, axis=1), n - 2)
-    return i0, matrix[np.arange(len(i0)), i0 + 1].astype(np.float32)
-
-
 def grid_to_grid_matrices(params, src_dims, dst_dims):
     """Separable linear resampling matrices from one table grid to another (same
     parameterisation, so each destination node has a fixed coordinate on each source axis)."""
@@ -503,18 +472,9 @@ def grid_to_grid_matrices(params, src_dims, dst_dims):
     return mats
 
 
-def spectral_resample_matrix(source: Media, target: Media) -> np.ndarray:
-    """(C_target, C_source): radiance at the target's wavelengths, linear in wavelength between
-    the source's (the identity for equal or three-channel media)."""
-    if source.wavelengths_nm == target.wavelengths_nm or not source.wavelengths_nm:
-        return np.eye(source.channels)
-    src = np.asarray(source.wavelengths_nm)
-    return np.stack([np.interp(target.wavelengths_nm, src, row) for row in np.eye(len(src))], axis=1)
-
-
 def bake_higher_orders(params: AtmosphereParams, media: Media, dims, single_rayleigh: np.ndarray,
                        single_mie: np.ndarray, orders: int, progress: Progress,
-                       single_media: Optional[Media] = None, optical_depth: Optional[np.ndarray] = None
+                       optical_depth: np.ndarray, single_media: Optional[Media] = None
                        ) -> Tuple[np.ndarray, list]:
     """Sum of orders 2..N divided by the Rayleigh phase and the ground-ray scale, in RGB, from
     single scattering without
@@ -531,7 +491,7 @@ def bake_higher_orders(params: AtmosphereParams, media: Media, dims, single_rayl
     total = np.zeros_like(prev)
     timings = []
     ground, irradiance = None, None
-    if params.ground_albedo > 0.0 and optical_depth is not None:
+    if params.ground_albedo > 0.0:
         heights, _, _, cos_sun, _ = par.grid_axes(params, dims_j)
         ground = GroundSource(params, media, optical_depth, heights, mu, cos_sun, dims_j)
         irradiance = ground.direct
@@ -572,7 +532,7 @@ def bake_ambient(luts: Luts, n: int) -> np.ndarray:
 
 def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", orders: int = 4,
          progress: Optional[Progress] = None) -> Luts:
-    """Bake every table for ``params`` (default: the sample's media).
+    """Bake every table for ``params`` (default: the clear-sky preset).
 
     ``resolution``: "default" (32 x 128 x 64 x 16), "draft" (half every dimension) or a tuple of
     the four 4D sizes. ``orders``: scattering orders summed into the multiple table (>= 1).
@@ -597,8 +557,8 @@ def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", ord
     t0 = time.perf_counter()
     if orders >= 2:
         higher, order_times = bake_higher_orders(params, bake_media(params, "higher"), res.scattering,
-                                                 single_rayleigh, single_mie, orders, report, single_media=media,
-                                                 optical_depth=optical_depth)
+                                                 single_rayleigh, single_mie, orders, report, optical_depth,
+                                                 single_media=media)
         timings.update(order_times)
     else:
         higher = np.zeros(res.scattering + (3,), np.float32)

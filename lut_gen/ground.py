@@ -8,8 +8,8 @@ where mu_s(G) is the sun's zenith cosine at G (the Earth is curved: it differs f
 viewer's) and E_sky the irradiance from the sky. The tables hold only the light scattered in the
 atmosphere, so the look-ups add this term for ground rays (the world below the horizon, the
 same formula as the terrain material). In the bake the ground is a source of the higher orders:
-the radiance field that order n scatters includes the ground lit by order n - 1
-(direct sun for n = 2), so ground-reflected light reaches the sky and the ambient skylight.
+the radiance field that order n scatters includes the ground lit by order n - 2 (the direct sun
+for n = 2), so ground-reflected light reaches the sky and the ambient skylight.
 """
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from . import parameterization as par
+from .atmosphere import mie_phase, rayleigh_phase
 from .geometry import distance_to_ground
 from .interpolation import axis_weights, interpolate
 from .sampling import table_net_density
@@ -67,7 +68,7 @@ class GroundSource:
     ``cos_sun`` (n_s,): its sun nodes, where the irradiance functions are sampled."""
 
     def __init__(self, params, media, optical_depth, heights, mu, cos_sun, dims):
-        self.params, self.media, self.dims = params, media, dims
+        self.params, self.dims = params, dims
         self.albedo = params.ground_albedo
         self.cos_sun = cos_sun
         extinction = media.extinction_matrix()
@@ -104,7 +105,6 @@ class GroundSource:
         xa, _ = par.view_zenith_to_x(mu, 0.0, n_a, self.params.earth_radius)
         coords = (np.broadcast_to(xa[None, :, None], ct.shape), np.arange(n_s)[:, None, None],
                   par.sun_view_to_x(ct, n_t))
-        from .atmosphere import mie_phase, rayleigh_phase
         radiance = interpolate(table_n[0], coords) * rayleigh_phase(ct)[..., None]
         if table_mie is not None:
             radiance += interpolate(table_mie[0], coords) * mie_phase(ct, self.params.mie_g)[..., None]

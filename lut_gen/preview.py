@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from .sampling import Luts
+from .sun_disc import limb_profile
 
 # The sample's extraterrestrial sun: intensity 10, scattering scale 0.5 (DESIGN.md).
 SUN_INTENSITY = 10.0
@@ -31,9 +32,11 @@ def sky_panorama(luts: Luts, sun_elevation_deg: float, width: int = 512, height:
     cos_sun_view = np.sin(el) * np.sin(sun_el) + np.cos(el) * np.cos(sun_el) * np.cos(az)
     sky = luts.sky_radiance(camera_height_m, cos_view, cos_sun, cos_sun_view) * (SUN_INTENSITY * SCATTERING_SCALE)
     sky += luts.ground_radiance(camera_height_m, cos_view, cos_sun, cos_sun_view) * SUN_INTENSITY
-    sun_disc = np.arccos(np.clip(cos_sun_view, -1, 1)) < SUN_ANGULAR_RADIUS
+    # The disc is drawn twice the real sun's size (a pixel is 0.7 deg) and 50x dimmer than the sun
+    # so the tone mapping keeps the sky; limb-darkened as the world shows it.
+    disc = limb_profile(cos_sun_view, 2.0 * SUN_ANGULAR_RADIUS)
     sun = luts.transmittance_to_top(camera_height_m, cos_sun)[None, None, :] * SUN_INTENSITY * 50.0
-    return np.where(sun_disc[..., None], sky + sun, sky)
+    return sky + disc * sun
 
 
 def tone_map(radiance: np.ndarray) -> np.ndarray:

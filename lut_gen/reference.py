@@ -308,6 +308,15 @@ def _net_density_flat(params: AtmosphereParams, r, mu, steps: int, with_ozone: b
     return out
 
 
+def _three_channel(params: AtmosphereParams) -> AtmosphereParams:
+    """The integrators below take the media's three channels literally: spectral params must go
+    through ``spectral`` / ``per_wavelength`` (their RGB coefficients are only an approximation)."""
+    if params.spectral:
+        raise ValueError("spectral params: call reference.spectral(integrator, params, ...) or "
+                         "reference.per_wavelength(...) instead of the three-channel integrator")
+    return params
+
+
 def net_density_to_top(params: AtmosphereParams, height_m, cos_zenith, steps: int = 512) -> np.ndarray:
     """(..., 3) Rayleigh, Mie, ozone densities integrated from the point to the top of the
     atmosphere (metres x relative density) along the direction with the given zenith cosine.
@@ -332,6 +341,7 @@ def net_density_to_top(params: AtmosphereParams, height_m, cos_zenith, steps: in
 def transmittance_to_top(params: AtmosphereParams, height_m, cos_zenith, steps: int = 512) -> np.ndarray:
     """(..., 3) RGB transmittance from the point to the top of the atmosphere; 0 where the
     ray runs into the Earth."""
+    _three_channel(params)
     net = net_density_to_top(params, height_m, cos_zenith, steps)
     hit = net[..., 0] >= HIT_EARTH_NET_DENSITY
     t = np.exp(-np.where(hit[..., None], 0.0, net) @ params.extinction_matrix())
@@ -413,6 +423,7 @@ def single_scattering(
     geometrically consistent with the two zenith cosines; heights are clamped to
     [0, atmosphere_height]. 0 where the view ray has zero length.
     """
+    _three_channel(params)
     if int(steps) < 3 or int(sun_steps) < 2:
         raise ValueError(f"need steps >= 3 and sun_steps >= 2, got {steps}, {sun_steps}")
     h, mu_v, mu_s, nu = np.broadcast_arrays(
@@ -637,6 +648,7 @@ def second_order(
     L1 per ray (~0.5-1 s per ray at the defaults). Inputs broadcast and are clamped like
     ``single_scattering``.
     """
+    _three_channel(params)
     if int(ray_steps) < 2 or int(transmittance_steps) < 2:
         raise ValueError(f"need ray_steps >= 2 and transmittance_steps >= 2, got {ray_steps}, {transmittance_steps}")
     shape, r, mu_v, mu_s, nu = _consistent_angles(params, height_m, cos_view_zenith, cos_sun_zenith, cos_sun_view)

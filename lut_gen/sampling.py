@@ -140,6 +140,7 @@ class Luts:
         per unit sun; 0 for rays that miss the ground (lut_gen.ground)."""
         from . import ground
         params = self.params
+        height_m = np.clip(np.asarray(height_m, dtype=np.float64), 0.0, params.atmosphere_height)
         cos_sun_view = par.clamp_sun_view(cos_view_zenith, cos_sun_zenith, cos_sun_view)
         _, cos_sun_at, cos_back = ground.ground_point(params, height_m, cos_view_zenith, cos_sun_zenith, cos_sun_view)
         extinction = params.extinction_matrix()

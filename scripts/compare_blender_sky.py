@@ -30,6 +30,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 import lut_gen  # noqa: E402
+from lut_gen import spectrum  # noqa: E402
 from lut_gen.png import to_srgb8, write_png  # noqa: E402
 
 SUN_ELEVATIONS = (60.0, 20.0, 5.0, 1.0, -2.0, -6.0)
@@ -39,9 +40,6 @@ LAT_MAX, LAT_MIN = 90.0, -10.0
 RGB_LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 MIDDLE_GRAY = 0.18
 WHITE = 12.0                             # extended-Reinhard white point (exposed units)
-REC709_TO_XYZ = np.array([[0.4124564, 0.3575761, 0.1804375],
-                          [0.2126729, 0.7151522, 0.0721750],
-                          [0.0193339, 0.1191920, 0.9503041]])
 
 
 # -- view mapping ---------------------------------------------------------------------------
@@ -60,14 +58,8 @@ def our_panorama(luts, sun_elevation_deg, width=WIDTH, height=HEIGHT):
     sun = math.radians(sun_elevation_deg)
     cos_sun = np.full_like(cos_view, math.sin(sun))
     cos_sun_view = np.sin(el) * math.sin(sun) + np.cos(el) * math.cos(sun) * np.cos(az)
-    rgb = np.asarray(luts.sky_radiance(CAMERA_HEIGHT_M, cos_view, cos_sun, cos_sun_view), np.float64)
-    ground_radiance = getattr(luts, "ground_radiance", None)
-    if ground_radiance is not None:
-        below = el < 0
-        if below.any():
-            g = ground_radiance(CAMERA_HEIGHT_M, cos_view[below], cos_sun[below], cos_sun_view[below])
-            rgb[below] += np.asarray(g, np.float64)
-    return rgb
+    return (np.asarray(luts.sky_radiance(CAMERA_HEIGHT_M, cos_view, cos_sun, cos_sun_view), np.float64)
+            + luts.ground_radiance(CAMERA_HEIGHT_M, cos_view, cos_sun, cos_sun_view))
 
 
 # -- Blender's sky --------------------------------------------------------------------------
@@ -166,16 +158,7 @@ def read_exr_rgb(path):
 
 # -- measures -------------------------------------------------------------------------------
 def chromaticity(rgb):
-    fn = getattr(getattr(lut_gen, "spectrum", None), "chromaticity", None)
-    if fn is None:
-        try:
-            from lut_gen.spectrum import chromaticity as fn
-        except ImportError:
-            fn = None
-    if fn is not None:
-        return np.asarray(fn(rgb))
-    xyz = np.asarray(rgb, np.float64) @ REC709_TO_XYZ.T
-    return xyz[..., :2] / np.maximum(xyz.sum(axis=-1, keepdims=True), 1e-300)
+    return np.asarray(spectrum.chromaticity(rgb))
 
 
 def luminance(rgb):
@@ -315,8 +298,7 @@ def main(argv=None):
     t0 = time.time()
     resolution = "draft" if args.draft else "default"
     luts, directory, hit = lut_gen.cached_bake(lut_gen.AtmosphereParams(), resolution=resolution)
-    print(f"luts: {directory} ({'cached' if hit else 'baked'}, {time.time() - t0:.1f} s); "
-          f"ground_radiance: {'yes' if getattr(luts, 'ground_radiance', None) else 'no'}")
+    print(f"luts: {directory} ({'cached' if hit else 'baked'}, {time.time() - t0:.1f} s)")
 
     blender = BlenderSky(samples=args.samples)
     masks = probes()

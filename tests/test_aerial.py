@@ -24,14 +24,18 @@ def segment_points():
     return points
 
 
-def exact_transmittance(start, end, n=4000):
+def exact_net_density(start, end, n=4000):
     s = np.linspace(0, 1, n)[:, None]
     pts = start + (end - start) * s[..., None]
     r = np.linalg.norm(pts + np.array([0, 0, P.earth_radius]), axis=-1)
     dens = densities(P, r - P.earth_radius)
     dx = np.linalg.norm(end - start, axis=-1)[None, :, None] / (n - 1)
-    net = (dens.sum(axis=0) - 0.5 * (dens[0] + dens[-1])) * dx[0]            # trapezoid rule
-    return np.exp(-net @ P.extinction_matrix())
+    return (dens.sum(axis=0) - 0.5 * (dens[0] + dens[-1])) * dx[0]            # trapezoid rule
+
+
+def exact_transmittance(start, end, params=P):
+    """RGB transmittance with the params' RGB extinction (what the look-ups use)."""
+    return np.exp(-exact_net_density(start, end) @ params.extinction_matrix())
 
 
 def test_segment_transmittance_matches_integration(default_luts):
@@ -51,14 +55,21 @@ def test_segment_inscattering_is_eq8_of_the_exact_radiance(default_luts):
     points = segment_points()
     direction = (points - CAMERA) / np.linalg.norm(points - CAMERA, axis=-1, keepdims=True)
 
-    def exact_radiance(at):
+    def exact_radiance(params, at):
         r = np.linalg.norm(at + np.array([0, 0, P.earth_radius]), axis=-1)
         up = (at + np.array([0, 0, P.earth_radius])) / r[:, None]
-        return reference.single_scattering(P, r - P.earth_radius, np.sum(up * direction, -1), up @ SUN, direction @ SUN)
+        return reference.single_scattering(params, r - P.earth_radius, np.sum(up * direction, -1), up @ SUN,
+                                           direction @ SUN)
 
-    want = exact_radiance(np.broadcast_to(CAMERA, points.shape)) - exact_transmittance(CAMERA[None, :], points) * exact_radiance(points)
+    def exact_segment(params, _):
+        """Per wavelength (three at a time): L(C) - T(C->P) L(P), exact for single scattering."""
+        camera = np.broadcast_to(CAMERA, points.shape)
+        return exact_radiance(params, camera) - exact_transmittance(CAMERA[None, :], points, params) * exact_radiance(params, points)
+
+    want = reference.spectral(exact_segment, P, None)
     got = aerial.segment_inscattering(default_luts, CAMERA, points, SUN, table="single")
-    scale = np.linalg.norm(exact_radiance(np.broadcast_to(CAMERA, points.shape)), axis=-1)
+    scale = np.linalg.norm(reference.spectral(lambda params, _: exact_radiance(params, np.broadcast_to(CAMERA, points.shape)),
+                                              P, None), axis=-1)
     err = np.linalg.norm(got - want, axis=-1) / scale
     assert np.median(err) < 0.03 and np.percentile(err, 90) < 0.08
     assert np.all(got >= 0)

@@ -29,8 +29,6 @@ from rays import ray
 PARAMS = AtmosphereParams(spectral=False, ozone=False, ground_albedo=0.0)
 
 
-
-
 RAYS = {
     "ground, zenith, sun 45": ray(0, 0, 45, 0),
     "ground, zenith, sun 80": ray(0, 0, 80, 0),

@@ -27,8 +27,6 @@ SINGLE_MARGIN = 0.02
 SECOND_MARGIN = 0.03
 
 
-
-
 RAYS = {
     "ground, zenith, sun 60": ray(0, 0, 60, 0),
     "ground, horizon, sun 60, azimuth 110": ray(0, 90, 60, 110),

@@ -61,8 +61,6 @@ HIGHER_MEDIAN = 0.10
 GROUND_MAX = 0.05
 
 
-
-
 # name: (height m, view elevation, sun elevation, azimuth from the sun), degrees.
 GEOMETRIES = {
     "2 m, zenith, sun 60": ray(2, 90, 60, 0),

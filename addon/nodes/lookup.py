@@ -73,7 +73,9 @@ def ground_ray_scale(g, h, cos_view, above, earth_radius):
     """lut_gen.geometry.ground_ray_scale for the half of the view axis the look-up used."""
     distance = g.math("MAXIMUM", distance_to_ground(g, h, cos_view, earth_radius), geometry.MIN_GROUND_RAY_M)
     length = geometry.GROUND_RAY_SCALE_M
-    scale = g.mul(g.sub(1.0, g.math("EXPONENT", g.div(distance, -length))), length)
+    # l (1 - exp(-x)) as 2 l exp(-x/2) sinh(x/2): float32 keeps its precision for short rays.
+    half = g.div(distance, 2.0 * length)
+    scale = g.mul(g.mul(g.math("EXPONENT", g.mul(half, -1.0)), g.math("SINH", half)), 2.0 * length)
     return g.lerp(scale, 1.0, above)
 
 
@@ -104,10 +106,11 @@ def lower_node(g, x, n):
 COMPOSITOR_GROUP_NAME = "OLS Scattering Lookup (Compositor)"
 
 
-def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=False, name=None, mie_image=None):
+def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=False, name=None, *, mie_image):
     """(Re)build the group ``name`` (default: GROUP_NAME or COMPOSITOR_GROUP_NAME) for the
     scattering atlas ``image`` with table sizes ``dims``; ``mie_image``: the single Mie atlas
-    for the tables that include single scattering (None for "higher").
+    for the tables that include single scattering, None only for "higher" (required: leaving it
+    out would silently drop the aureole).
 
     ``filtering``: "HARDWARE" blends the two in-tile axes with the texture unit (4 fetches;
     Cycles, which has no mipmaps). "MANUAL" fetches texel centres with Closest interpolation and

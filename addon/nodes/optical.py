@@ -87,6 +87,7 @@ def ground_radiance(g, optical_image, ambient_image, height, cos_view, cos_sun, 
     """Light the Lambertian ground reflects toward the viewer per unit sun, 0 for rays that miss
     it: T(view) * albedo / pi * (direct sun + ambient skylight) at the ground point. Twin:
     lut_gen.Luts.ground_radiance."""
+    height = g.clamp(height, 0.0, params.atmosphere_height)       # as lut_gen.ground.ground_point
     radius = g.add(height, params.earth_radius)
     distance = g.math("MINIMUM", distance_to_ground(g, height, cos_view, params.earth_radius),
                       2.0 * math.sqrt(params.top_radius ** 2 - params.earth_radius ** 2))
