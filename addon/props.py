@@ -424,7 +424,7 @@ class OLSSettings(bpy.types.PropertyGroup):
              "real clear sky, blue twilight zenith included"),
             ("SAMPLE_2013", "Sample 2013",
              "The sample's own media: three wavelengths used directly as RGB, no ozone, black ground "
-             "(reproduces the seed's figures)"),
+             "(the media of the seed's figures, with this version's numerics)"),
         ],
         default="CLEAR_SKY",
         update=_rebake_soon,

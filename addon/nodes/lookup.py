@@ -74,7 +74,8 @@ def ground_ray_scale(g, h, cos_view, above, earth_radius):
     distance = g.math("MAXIMUM", distance_to_ground(g, h, cos_view, earth_radius), geometry.MIN_GROUND_RAY_M)
     length = geometry.GROUND_RAY_SCALE_M
     # l (1 - exp(-x)) as 2 l exp(-x/2) sinh(x/2): float32 keeps its precision for short rays.
-    half = g.div(distance, 2.0 * length)
+    # Clamped: sinh overflows for the huge distances of rays that miss the ground (0 x inf).
+    half = g.math("MINIMUM", g.div(distance, 2.0 * length), 20.0)
     scale = g.mul(g.mul(g.math("EXPONENT", g.mul(half, -1.0)), g.math("SINH", half)), 2.0 * length)
     return g.lerp(scale, 1.0, above)
 
