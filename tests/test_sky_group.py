@@ -27,7 +27,8 @@ def build_world(pkg, bake_dir, sun_direction, camera_height):
     nodes = import_module(pkg.__name__ + ".addon.nodes")
     nodes.build_lookup_group(images["multiple"], luts.dims, luts.params, mie_image=images["single_mie"])
     skylight = import_module(pkg.__name__ + ".addon.scene.skylight")
-    sky = nodes.build_sky_group(images["optical_depth"], luts.params, skylight.ensure_image(), images["ambient"])
+    sky = nodes.build_sky_group(images["optical_depth"], luts.params, skylight.ensure_image(), images["ambient"],
+                                skylight.ensure_ground_image())
     world = bpy.data.worlds.new("OLS Test World")
     scene.world = world
     world.use_nodes = True

@@ -39,11 +39,12 @@ def limb_darkened_disc(g, cos_sun_view, angle):
     return g.vscale(g.combine(*per_channel), g.div(inside, solid_angle))
 
 
-def build_sky_group(optical_depth_image, params, skylight_image, ambient_image):
-    """``skylight_image``: the sky for the current sun and camera height as an equirectangular
-    panorama (scene/skylight.py keeps it current). Camera rays evaluate the exact 4D look-up;
-    every other ray (lighting, reflections, EEVEE's world probe) reads the panorama, which costs
-    one texture fetch: Cycles skips the unused branch of a Mix Shader."""
+def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, ground_light_image):
+    """``skylight_image`` and ``ground_light_image``: the sky and the lit ground for the current
+    sun and camera height as equirectangular panoramas (scene/skylight.py keeps them current).
+    Camera rays evaluate the exact 4D look-up and ground term; every other ray (lighting,
+    reflections, EEVEE's world probe) reads the panoramas, two texture fetches: Cycles skips the
+    unused branch of a Mix Shader."""
     tree = new_group(GROUP_NAME)
     g, gin, gout = group_io(tree, INPUTS, [("Color", "NodeSocketColor", None), ("Background", "NodeSocketShader", None)])
     view = g.vmath("NORMALIZE", g.node("ShaderNodeTexCoord").outputs["Generated"])
@@ -77,10 +78,13 @@ def build_sky_group(optical_depth_image, params, skylight_image, ambient_image):
     uv = g.combine(g.add(g.div(azimuth, 2 * math.pi), 0.5), g.add(g.div(elevation, math.pi), 0.5), 0.0)
     panorama = g.node("ShaderNodeTexImage", image=skylight_image, interpolation="Linear", extension="REPEAT")
     g.feed(panorama.inputs["Vector"], uv)
+    ground_light = g.node("ShaderNodeTexImage", image=ground_light_image, interpolation="Linear", extension="REPEAT")
+    g.feed(ground_light.inputs["Vector"], uv)
     light_path = g.node("ShaderNodeLightPath")
     lit = g.math("MAXIMUM", light_path.outputs["Is Glossy Ray"], gin.outputs["Light Scene"])
     lighting = g.node("ShaderNodeBackground")
-    surroundings = g.vmath("ADD", g.vscale(panorama.outputs["Color"], sky_scale), ground)
+    surroundings = g.vmath("ADD", g.vscale(panorama.outputs["Color"], sky_scale),
+                           g.vscale(ground_light.outputs["Color"], strength))
     g.feed(lighting.inputs["Color"], g.vscale(surroundings, lit))
 
     mix = g.node("ShaderNodeMixShader")

@@ -1,9 +1,11 @@
-"""The sky as an equirectangular panorama for lighting: "OLS Sky Light".
+"""The sky and the lit ground as equirectangular panoramas for lighting: "OLS Sky Light" and
+"OLS Ground Light".
 
-Non-camera rays of the OLS Sky world read this image instead of the 4D look-up (see
-nodes/sky.py). It holds sky radiance per unit sun (lut_gen's numpy look-up, the node groups'
-twin) for the current sun direction and camera height, so it is recomputed when either
-changes (scene handlers) and after a re-bake. Pixel (i, j) of a W x H image (rows bottom to
+Non-camera rays of the OLS Sky world read these images instead of the 4D look-up and the ground
+term (see nodes/sky.py): two texture fetches. They hold sky radiance and ground radiance per
+unit sun (lut_gen's numpy look-ups, the node groups' twins), apart because the sky is scaled by
+the scattering scale and the ground is not, for the current sun direction and camera height, so
+they are recomputed when either changes (scene handlers) and after a re-bake. Pixel (i, j) of a W x H image (rows bottom to
 top) looks at azimuth ((i + 0.5) / W - 0.5) 2 pi from +Y toward +X and elevation
 ((j + 0.5) / H - 0.5) pi.
 """
@@ -16,11 +18,12 @@ from ...lut_gen import atlas
 from ...lut_gen.sampling import Luts
 
 IMAGE_NAME = "OLS Sky Light"
+GROUND_IMAGE_NAME = "OLS Ground Light"
 SIZE = (512, 256)
 SUN_TOLERANCE = 1e-5        # radians-ish: below this the panorama is not recomputed
 HEIGHT_TOLERANCE_M = 1.0
 
-_tables = {}                # bake key -> Luts holding the multiple table read back from its image
+_tables = {}                # bake key -> Luts holding the tables read back from their images
 _state = {}                 # image name -> (key, sun direction, height) it was computed for
 
 
@@ -39,49 +42,69 @@ def sky_panorama(luts: Luts, sun_direction, camera_height: float, size=SIZE) -> 
     return luts.sky_radiance(max(camera_height, 0.0), d[..., 2], sun[2], d @ sun)
 
 
-def ensure_image():
-    image = bpy.data.images.get(IMAGE_NAME)
+def ground_panorama(luts: Luts, sun_direction, camera_height: float, size=SIZE) -> np.ndarray:
+    """(H, W, 3) radiance of the lit ground per unit sun (0 above the horizon), rows bottom to top."""
+    d = panorama_directions(*size)
+    sun = np.asarray(sun_direction, dtype=np.float64)
+    return luts.ground_radiance(max(camera_height, 0.0), d[..., 2], sun[2], d @ sun)
+
+
+def ensure_image(name=IMAGE_NAME):
+    image = bpy.data.images.get(name)
     if image is None or tuple(image.size) != SIZE:
         if image is not None:
             bpy.data.images.remove(image)
-        image = bpy.data.images.new(IMAGE_NAME, SIZE[0], SIZE[1], alpha=True, float_buffer=True)
+        image = bpy.data.images.new(name, SIZE[0], SIZE[1], alpha=True, float_buffer=True)
         image.colorspace_settings.is_data = True
     return image
 
 
-def _table_from_image(image, dims) -> np.ndarray:
+def ensure_ground_image():
+    return ensure_image(GROUND_IMAGE_NAME)
+
+
+def _pixels(image) -> np.ndarray:
+    """(height, width, 3) of a loaded table image (rows bottom to top, as the arrays lut_gen
+    writes)."""
     width, height = image.size
     pixels = np.empty(width * height * 4, dtype=np.float32)
     image.pixels.foreach_get(pixels)
-    return atlas.unpack(pixels.reshape(height, width, 4)[..., :3], dims)
+    return pixels.reshape(height, width, 4)[..., :3]
 
 
 def _luts_from_images(key: str, images, params, dims) -> Luts:
-    """Luts holding the multiple and single Mie tables read back from their images."""
+    """Luts holding the tables the panoramas need, read back from their images: the multiple
+    and single Mie atlases, the optical depth (stored height along x) and the ambient skylight."""
     if key not in _tables:
-        multiple_image, mie_image = images
-        table = _table_from_image(multiple_image, dims)
-        empty = np.zeros((2, 2, 3), np.float32)
+        multiple_image, mie_image, optical_image, ambient_image = images
+        table = atlas.unpack(_pixels(multiple_image), dims)
         _tables.clear()
-        _tables[key] = Luts(params, single=table, higher=np.zeros_like(table), optical_depth=empty,
-                            ambient=empty[0], multiple=table, single_mie=_table_from_image(mie_image, dims))
+        _tables[key] = Luts(params, single=table, higher=np.zeros_like(table),
+                            optical_depth=np.ascontiguousarray(_pixels(optical_image).transpose(1, 0, 2)),
+                            ambient=np.ascontiguousarray(_pixels(ambient_image)[0]), multiple=table,
+                            single_mie=atlas.unpack(_pixels(mie_image), dims))
     return _tables[key]
 
 
+def _write(image, radiance):
+    rgba = np.ones(radiance.shape[:2] + (4,), dtype=np.float32)
+    rgba[..., :3] = radiance
+    image.pixels.foreach_set(rgba.ravel())
+    image.update()
+
+
 def update(key: str, images, params, dims, sun_direction, camera_height: float, force=False) -> bool:
-    """Recompute the panorama when the sun, the camera height or the bake changed; ``images``:
-    the multiple and single Mie atlases."""
-    image = ensure_image()
+    """Recompute the panoramas when the sun, the camera height or the bake changed; ``images``:
+    the multiple, single Mie, optical-depth and ambient-skylight images of the bake."""
+    image, ground_image = ensure_image(), ensure_ground_image()
     sun = np.asarray(sun_direction, dtype=np.float64)
     previous = _state.get(image.name)
     if (not force and previous is not None and previous[0] == key
             and np.abs(previous[1] - sun).max() < SUN_TOLERANCE and abs(previous[2] - camera_height) < HEIGHT_TOLERANCE_M):
         return False
-    radiance = sky_panorama(_luts_from_images(key, images, params, dims), sun, camera_height)
-    rgba = np.ones(radiance.shape[:2] + (4,), dtype=np.float32)
-    rgba[..., :3] = radiance
-    image.pixels.foreach_set(rgba.ravel())
-    image.update()
+    luts = _luts_from_images(key, images, params, dims)
+    _write(image, sky_panorama(luts, sun, camera_height))
+    _write(ground_image, ground_panorama(luts, sun, camera_height))
     _state[image.name] = (key, sun, camera_height)
     return True
 

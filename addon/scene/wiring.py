@@ -44,7 +44,8 @@ def build_groups(bake_dir, engine="CYCLES"):
     params, dims = lut_gen.exr_io.read_header_params(bake_dir)
     nodes.build_lookup_group(images["multiple"], dims, params, nodes.lookup.filtering_for_engine(engine),
                              mie_image=images["single_mie"])
-    nodes.build_sky_group(images["optical_depth"], params, skylight.ensure_image(), images["ambient"])
+    nodes.build_sky_group(images["optical_depth"], params, skylight.ensure_image(), images["ambient"],
+                          skylight.ensure_ground_image())
     nodes.build_terrain_group(images["optical_depth"], images["ambient"], params)
     for table in nodes.COMPOSITOR_TABLES:
         nodes.build_lookup_group(images[table], dims, params, compositor=True, name=nodes.lookup_group_name(table),
@@ -184,8 +185,9 @@ class BakeInfo:
         self.key = key
         self.multiple = bpy.data.images.get(luts.image_name("multiple", key))
         self.single_mie = bpy.data.images.get(luts.image_name("single_mie", key))
-        optical_depth = bpy.data.images.get(luts.image_name("optical_depth", key))
-        if self.multiple is None or self.single_mie is None or optical_depth is None:
+        self.ambient = bpy.data.images.get(luts.image_name("ambient", key))
+        self.optical_depth = optical_depth = bpy.data.images.get(luts.image_name("optical_depth", key))
+        if None in (self.multiple, self.single_mie, self.ambient, optical_depth):
             raise FileNotFoundError(f"the images of bake {key} are not loaded; run Set Up Scene")
         self.params, self.dims = lut_gen.exr_io.read_header_params(Path(bpy.path.abspath(self.multiple.filepath)).parent)
         self.origin_transmittance = sun_lamps.OriginTransmittance(optical_depth, self.params)
@@ -222,7 +224,7 @@ def refresh(scene, force=False):
     compositor.sync_settings(scene)
     frame_update.write_frame_values(scene)
     height = scene.camera.matrix_world.translation.z if scene.camera else 0.0
-    skylight.update(info.key, (info.multiple, info.single_mie), info.params, info.dims,
+    skylight.update(info.key, (info.multiple, info.single_mie, info.optical_depth, info.ambient), info.params, info.dims,
                     sun_lamps.direction_to_sun(sun), height, force)
 
 
