@@ -154,12 +154,19 @@ def test_daylight_multiple_scattering_share(default_luts):
 
 
 def test_twilight_sky_owes_more_to_higher_orders(default_luts):
+    """In green and blue the twilight zenith owes more to the higher orders than the day's
+    (measured: day 22 / 27 / 37%, sun -5 deg 20 / 31 / 43% in red / green / blue). Red is the
+    exception with a lit ground: by day it reflects red sunlight into the higher orders, at
+    twilight it is in the Earth's shadow."""
     day_single, day_multiple = zenith_higher_share(default_luts, 45.0)
     dusk_single, dusk_multiple = zenith_higher_share(default_luts, -5.0)
     day_share = 1 - day_single / day_multiple
     dusk_share = 1 - dusk_single / dusk_multiple
-    assert np.all(dusk_share > day_share)
+    assert np.all(dusk_share[1:] > day_share[1:])
     assert np.argmax(dusk_share) == 2 and dusk_share[2] > 0.3
+    black = lut_gen.bake(AtmosphereParams(ground_albedo=0.0), resolution="draft")
+    black_day, black_dusk = (1 - np.divide(*zenith_higher_share(black, e)) for e in (45.0, -5.0))
+    assert np.all(black_dusk > black_day)
 
 
 @pytest.fixture(scope="module")
