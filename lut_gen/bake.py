@@ -42,8 +42,7 @@ from .atmosphere import AtmosphereParams, mie_phase, ozone_density, rayleigh_pha
 from .spectrum import Media, bake_media, spectral_resample_matrix
 from .ground import GroundSource
 from .geometry import clustered_nodes, distance_to_sphere_exit, radius_along, ray_length
-from .interpolation import (axis_weights, gather, geometric_lerp, packed_rows, resample_matrix,
-                            resample_separable, resample_sun_geometric)
+from .interpolation import axis_weights, gather, geometric_lerp, packed_rows, resample_matrix, resample_sun_geometric
 from .sampling import EARTH_HIT_NET_DENSITY, Luts
 
 Progress = Callable[[str, float], None]
@@ -382,8 +381,8 @@ def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az, prev_mie=None
     if prev_mie is not None:
         scattered += radiance[..., channels:2 * channels] * mie_phase(ct, params.mie_g).astype(np.float32)[None, ..., None]
     if ground is not None:
-        source, irradiance = ground
-        scattered += source.radiance(irradiance, ct)
+        ground_source, irradiance = ground
+        scattered += ground_source.radiance(irradiance, ct)
     radiance = scattered
     # Convolution in azimuth = product of cosine spectra; a matmul over mu per frequency.
     forward, inverse = _cosine_transforms(n_az)
@@ -477,10 +476,9 @@ def bake_higher_orders(params: AtmosphereParams, media: Media, dims, single_rayl
                        optical_depth: np.ndarray, single_media: Optional[Media] = None
                        ) -> Tuple[np.ndarray, list]:
     """Sum of orders 2..N divided by the Rayleigh phase and the ground-ray scale, in RGB, from
-    single scattering without
-    phases at the wavelengths of ``single_media`` (default: ``media``); the orders themselves are
-    integrated at the (fewer) wavelengths of ``media``: they are smooth in wavelength. Per-order
-    timings."""
+    single scattering without phases at the wavelengths of ``single_media`` (default: ``media``);
+    the orders themselves are integrated at the (fewer) wavelengths of ``media``: they are smooth
+    in wavelength. Per-order timings."""
     dims_j = higher_order_dims(dims)
     to_order_grid = grid_to_grid_matrices(params, dims, dims_j) + [None]
     spectral = spectral_resample_matrix(single_media or media, media).T.astype(np.float32)

@@ -35,18 +35,13 @@ def panorama_directions(width: int, height: int) -> np.ndarray:
                      np.sin(elevation)], axis=-1)
 
 
-def sky_panorama(luts: Luts, sun_direction, camera_height: float, size=SIZE) -> np.ndarray:
-    """(H, W, 3) sky radiance per unit sun, rows bottom to top."""
+def panoramas(luts: Luts, sun_direction, camera_height: float, size=SIZE):
+    """(sky, ground): (H, W, 3) sky radiance and lit-ground radiance (0 above the horizon) per
+    unit sun, rows bottom to top, for the same view directions."""
     d = panorama_directions(*size)
     sun = np.asarray(sun_direction, dtype=np.float64)
-    return luts.sky_radiance(max(camera_height, 0.0), d[..., 2], sun[2], d @ sun)
-
-
-def ground_panorama(luts: Luts, sun_direction, camera_height: float, size=SIZE) -> np.ndarray:
-    """(H, W, 3) radiance of the lit ground per unit sun (0 above the horizon), rows bottom to top."""
-    d = panorama_directions(*size)
-    sun = np.asarray(sun_direction, dtype=np.float64)
-    return luts.ground_radiance(max(camera_height, 0.0), d[..., 2], sun[2], d @ sun)
+    view = (max(camera_height, 0.0), d[..., 2], sun[2], d @ sun)
+    return luts.sky_radiance(*view), luts.ground_radiance(*view)
 
 
 def ensure_image(name=IMAGE_NAME):
@@ -103,8 +98,9 @@ def update(key: str, images, params, dims, sun_direction, camera_height: float, 
             and np.abs(previous[1] - sun).max() < SUN_TOLERANCE and abs(previous[2] - camera_height) < HEIGHT_TOLERANCE_M):
         return False
     luts = _luts_from_images(key, images, params, dims)
-    _write(image, sky_panorama(luts, sun, camera_height))
-    _write(ground_image, ground_panorama(luts, sun, camera_height))
+    sky, ground = panoramas(luts, sun, camera_height)
+    _write(image, sky)
+    _write(ground_image, ground)
     _state[image.name] = (key, sun, camera_height)
     return True
 
