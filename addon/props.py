@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty
 
-from ..lut_gen.atmosphere import (DEFAULT_GROUND_ALBEDO, DEFAULT_MIE_SCATTERING, DEFAULT_RAYLEIGH_SCATTERING,
+from ..lut_gen.atmosphere import (DEFAULT_GROUND_ALBEDO, DEFAULT_RAYLEIGH_SCATTERING,
                                   AtmosphereParams, preset)
 
 CONTROL_SETS = ("BASIC", "ADDITIONAL", "TONE_MAPPING")
@@ -100,13 +100,31 @@ _LIVE_NOW = {
     "best_cascade_search",
     "cascade_partitioning_factor",
     "first_cascade_to_ray_march",
+    "scattering_technique",
+    "epipolar_slices",
+    "samples_per_slice",
+    "initial_sample_step",
+    "epipole_sampling_density",
+    "refinement_threshold",
 }
 LATER_ISSUE = frozenset(name for names in PROPERTIES_BY_SET.values() for name in names) - _LIVE_NOW
 
-LATER_NOTE = "(arrives with epipolar sampling)"
+# Why each greyed control has no effect in this version's epipolar design (lut_gen.epipolar).
+LATER_NOTES = {
+    "show_sampling": "(not drawn yet)",
+    "use_min_max_optimization": "(not built: each table ray is marched through the shadow maps)",
+    "optimize_sample_locations": "(no effect: samples are spaced by angle from the sun, so short epipolar "
+                                 "lines are not oversampled)",
+    "correct_depth_breaks": "(not needed: each pixel reads the epipolar tables at its own depth, so no pixel "
+                            "is interpolated across a depth break)",
+    "show_depth_breaks": "(not needed: each pixel reads the epipolar tables at its own depth, so there are no "
+                         "depth breaks to correct)",
+    "extinction_evaluation_mode": "(extinction is always evaluated per pixel)",
+    "refinement_criterion": "(refinement always compares the lit length of neighbouring samples; depth plays "
+                            "no part since each pixel uses its own)",
+}
+LATER_NOTE = "(not built in this version)"
 
-# Mie scattering coefficient at aerosol density 1 for a white Mie colour (1/m).
-MIE_SCATTERING_SCALE = DEFAULT_MIE_SCATTERING[0]
 # The largest default Rayleigh coefficient (blue); the Rayleigh colour is relative to it.
 RAYLEIGH_SCATTERING_SCALE = max(DEFAULT_RAYLEIGH_SCATTERING)
 DEFAULT_RAYLEIGH_COLOR = tuple(c / RAYLEIGH_SCATTERING_SCALE for c in DEFAULT_RAYLEIGH_SCATTERING)
@@ -143,7 +161,7 @@ def _start_rebake():
 
 def _d(name, text):
     """Tooltip for control ``name``; controls in LATER_ISSUE say when they take effect."""
-    return f"{text} {LATER_NOTE}" if name in LATER_ISSUE else text
+    return f"{text} {LATER_NOTES.get(name, LATER_NOTE)}" if name in LATER_ISSUE else text
 
 
 class OLSSettings(bpy.types.PropertyGroup):
@@ -186,6 +204,7 @@ class OLSSettings(bpy.types.PropertyGroup):
              "optimization: the reference ground-truth image"),
         ),
         default="EPIPOLAR_SAMPLING",
+        update=_sync_compositor,
     )
     shadow_map_resolution: EnumProperty(
         name="Shadow Map Resolution",
@@ -215,6 +234,7 @@ class OLSSettings(bpy.types.PropertyGroup):
                        "Number of epipolar slices. More slices give higher quality at higher "
                        "cost; at least half the largest image dimension looks good"),
         default=512, min=32, max=2048,
+        update=_sync_compositor,
     )
     samples_per_slice: IntProperty(
         name="Total Samples in Slice",
@@ -222,6 +242,7 @@ class OLSSettings(bpy.types.PropertyGroup):
                        "Number of samples along each epipolar slice; at least half the largest "
                        "image dimension looks good"),
         default=256, min=32, max=2048,
+        update=_sync_compositor,
     )
     initial_sample_step: IntProperty(
         name="Initial Sample Step",
@@ -229,6 +250,7 @@ class OLSSettings(bpy.types.PropertyGroup):
                        "Step between the initial ray marching samples along each epipolar line. "
                        "A lower step places more samples and gives higher quality"),
         default=16, min=2, max=64,
+        update=_sync_compositor,
     )
     epipole_sampling_density: IntProperty(
         name="Epipole Sampling Density",
@@ -236,6 +258,7 @@ class OLSSettings(bpy.types.PropertyGroup):
                        "Additional increase of the initial ray marching sample density near the "
                        "epipole, for the strong forward Mie scattering around the sun"),
         default=2, min=1, max=32,
+        update=_sync_compositor,
     )
     refinement_threshold: FloatProperty(
         name="Refinement Threshold",
@@ -243,6 +266,7 @@ class OLSSettings(bpy.types.PropertyGroup):
                        "Refinement accuracy: a smaller threshold places more ray marching samples "
                        "at discontinuities of light intensity"),
         default=0.03, min=0.001, max=0.5, precision=3, step=0.1,
+        update=_sync_compositor,
     )
     scattering_scale: FloatProperty(
         name="Scattering Scale",
@@ -397,8 +421,8 @@ class OLSSettings(bpy.types.PropertyGroup):
     )
     mie_color: FloatVectorProperty(
         name="Mie Color",
-        description="Mie scattering coefficients relative to the default aerosol (2e-5 per metre "
-                    "for white)",
+        description="Mie scattering coefficients per channel relative to the preset's aerosol (white: the "
+                    "preset's own; Clear Sky 6.4e-5, 8e-5, 1e-4 per metre, Sample 2013 2e-5)",
         subtype='COLOR', size=3, default=DEFAULT_MIE_COLOR, min=0.0, soft_max=1.0, max=10.0,
         update=_rebake_soon,
     )
@@ -525,23 +549,25 @@ def atmosphere_params(settings) -> AtmosphereParams:
     and absorption map one to one; ground albedo and ozone column apply to the Clear Sky preset
     (Sample 2013 has neither). With custom scattering coefficients on, the Rayleigh coefficients
     are ``max(default Rayleigh) * rayleigh_color`` (so the default colour gives the default
-    coefficients) and the Mie coefficients ``2e-5 * mie_color``; off, both are the defaults.
+    coefficients) and the Mie coefficients the preset's, times ``mie_color`` per channel; off,
+    both are the preset's.
     """
+    name = "sample-2013" if settings.atmosphere_preset == "SAMPLE_2013" else "clear-sky"
     rayleigh = DEFAULT_RAYLEIGH_SCATTERING
-    mie = DEFAULT_MIE_SCATTERING
+    mie = preset(name).mie_scattering
     if settings.use_custom_scattering_coeffs:
         color = _f32_color(settings.rayleigh_color)
         if color != _f32_color(DEFAULT_RAYLEIGH_COLOR):
             rayleigh = tuple(RAYLEIGH_SCATTERING_SCALE * c for c in color)
         color = _f32_color(settings.mie_color)
         if color != _f32_color(DEFAULT_MIE_COLOR):
-            mie = tuple(MIE_SCATTERING_SCALE * c for c in color)
-    if settings.atmosphere_preset == "SAMPLE_2013":
-        return preset("sample-2013", rayleigh_scattering=rayleigh, mie_scattering=mie,
+            mie = tuple(m * c for m, c in zip(mie, color))
+    if name == "sample-2013":
+        return preset(name, rayleigh_scattering=rayleigh, mie_scattering=mie,
                       aerosol_density=_f32_value(settings.aerosol_density),
                       aerosol_absorption=_f32_value(settings.aerosol_absorption))
     return preset(
-        "clear-sky",
+        name,
         rayleigh_scattering=rayleigh,
         mie_scattering=mie,
         aerosol_density=_f32_value(settings.aerosol_density),

@@ -16,6 +16,9 @@ ENABLED_BY = {
     "mie_color": lambda settings: settings.use_custom_scattering_coeffs,
     "ground_albedo": lambda settings: settings.atmosphere_preset == "CLEAR_SKY",
     "ozone_column": lambda settings: settings.atmosphere_preset == "CLEAR_SKY",
+    **{name: (lambda settings: settings.scattering_technique == "EPIPOLAR_SAMPLING")
+       for name in ("epipolar_slices", "samples_per_slice", "initial_sample_step", "epipole_sampling_density",
+                    "refinement_threshold")},
 }
 
 
@@ -42,7 +45,7 @@ def draw_settings(layout, settings):
     layout.prop(settings, "control_set", text="")
     names = PROPERTIES_BY_SET[settings.control_set]
     if any(name in LATER_ISSUE for name in names):
-        layout.label(text="Greyed controls take effect with the compositor passes", icon='INFO')
+        layout.label(text="Greyed controls have no effect yet (their tooltips say why)", icon='INFO')
     col = layout.column()
     col.use_property_split = True
     col.use_property_decorate = False

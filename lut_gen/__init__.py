@@ -8,11 +8,11 @@ Update"): pure numpy + OpenEXR, no Blender needed.
     luts.sky_radiance(height_m, cos_view_zenith, cos_sun_zenith, cos_sun_view)
 """
 from . import aerial, monte_carlo, reference, scattering_pass, shadow_map, spectrum
-from .atmosphere import AtmosphereParams
+from .atmosphere import AtmosphereParams, preset
 from .bake import RESOLUTIONS, bake
 from .cache import cached_bake, default_cache_root
 from .exr_io import LutError, load, save
 from .sampling import Luts
 
-__all__ = ["AtmosphereParams", "Luts", "LutError", "RESOLUTIONS", "bake", "cached_bake",
+__all__ = ["AtmosphereParams", "Luts", "LutError", "RESOLUTIONS", "bake", "cached_bake", "preset",
            "default_cache_root", "load", "save"]

@@ -126,8 +126,7 @@ def light_shafts(luts: Luts, camera, end, sun_direction, is_lit, steps: int = 32
     map: 0 or 1, or fractions with PCF). The march takes ``steps`` samples at step centres and finds the lit length and the
     distance to the first lit sample (the sample's D_lit, D_start), then applies the modes.
     """
-    if single_mode not in SINGLE_MODES or multiple_mode not in MULTIPLE_MODES:
-        raise ValueError(f"single_mode in {SINGLE_MODES}, multiple_mode in {MULTIPLE_MODES}")
+    check_modes(single_mode, multiple_mode)
     camera = np.asarray(camera, float)
     end = np.asarray(end, float)
     camera, end = np.broadcast_arrays(camera, end)
@@ -142,22 +141,47 @@ def light_shafts(luts: Luts, camera, end, sun_direction, is_lit, steps: int = 32
     lit_length = lit.sum(axis=-1) * step
     any_light = lit > 0.0
     first_lit = np.where(any_light.any(axis=-1), np.argmax(any_light, axis=-1) * step, length)
-
-    result = np.zeros(length.shape + (3,))
+    integrated = None
     if single_mode == "INTEGRATION":
-        height, up = _frame(luts, samples)
-        cos_sun = np.sum(up * sun[(None,) * (samples.ndim - 1)], axis=-1)
-        sun_trans = luts.transmittance_to_top(height, cos_sun)
-        # Extinction camera -> sample accumulated step by step (midpoint rule), as the march goes.
-        step_density = densities(luts.params, height) * step[..., None, None]
-        before = np.cumsum(step_density, axis=-2) - step_density
-        view_trans = np.exp(-np.minimum((before + 0.5 * step_density) @ luts.params.extinction_matrix(), 80.0))
-        rho = np.stack([np.exp(-np.maximum(height, 0) / luts.params.rayleigh_scale_height),
-                        np.exp(-np.maximum(height, 0) / luts.params.mie_scale_height)], axis=-1)
-        cos_theta = np.sum(direction * sun, axis=-1)[..., None, None]
-        scatter = (luts.params.rayleigh * rho[..., :1] * rayleigh_phase(cos_theta)
-                   + luts.params.mie * rho[..., 1:] * mie_phase(cos_theta, luts.params.mie_g))
-        result += np.sum(scatter * view_trans * sun_trans * lit[..., None], axis=-2) * step[..., None]
+        integrated = np.sum(integration_terms(luts, camera, direction, samples, step[..., None], sun) * lit[..., None],
+                            axis=-2)
+    return apply_modes(luts, camera, end, sun, lit_length, first_lit, integrated, single_mode, multiple_mode)
+
+
+def check_modes(single_mode, multiple_mode):
+    if single_mode not in SINGLE_MODES or multiple_mode not in MULTIPLE_MODES:
+        raise ValueError(f"single_mode in {SINGLE_MODES}, multiple_mode in {MULTIPLE_MODES}")
+
+
+def integration_terms(luts: Luts, camera, direction, samples, steps, sun) -> np.ndarray:
+    """(..., n, 3) single scattering of each march step toward the camera, unshadowed:
+    sigma_s P(theta) T(C->X) T_sun(X) x step (the sample's "Singl sctr: integration"), with the
+    extinction from the camera accumulated step by step (midpoint rule). ``samples`` (..., n, 3)
+    are the step centres in order from the camera, ``steps`` (..., n) their lengths."""
+    height, up = _frame(luts, samples)
+    cos_sun = np.sum(up * sun[(None,) * (samples.ndim - 1)], axis=-1)
+    sun_trans = luts.transmittance_to_top(height, cos_sun)
+    step_density = densities(luts.params, height) * np.asarray(steps)[..., None]
+    before = np.cumsum(step_density, axis=-2) - step_density
+    view_trans = np.exp(-np.minimum((before + 0.5 * step_density) @ luts.params.extinction_matrix(), 80.0))
+    rho = np.stack([np.exp(-np.maximum(height, 0) / luts.params.rayleigh_scale_height),
+                    np.exp(-np.maximum(height, 0) / luts.params.mie_scale_height)], axis=-1)
+    cos_theta = np.sum(direction * sun, axis=-1)[..., None, None]
+    scatter = (luts.params.rayleigh * rho[..., :1] * rayleigh_phase(cos_theta)
+               + luts.params.mie * rho[..., 1:] * mie_phase(cos_theta, luts.params.mie_g))
+    return scatter * view_trans * sun_trans * np.asarray(steps)[..., None]
+
+
+def apply_modes(luts: Luts, camera, end, sun, lit_length, first_lit, integrated, single_mode: str,
+                multiple_mode: str) -> np.ndarray:
+    """(..., 3) in-scattering along camera -> end from what a march found: the lit length, the
+    distance to the first lit point and (INTEGRATION) the integrated single scattering, with the
+    sample's single- and multiple-scattering modes."""
+    ray = end - camera
+    direction = ray / np.maximum(np.linalg.norm(ray, axis=-1), 1e-9)[..., None]
+    result = np.zeros(np.shape(lit_length) + (3,))
+    if single_mode == "INTEGRATION":
+        result += integrated
     lit_start = camera + direction * first_lit[..., None]
     lit_end = lit_start + direction * lit_length[..., None]
     has_lit = (lit_length > 0)[..., None]

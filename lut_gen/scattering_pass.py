@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import aerial
+from . import aerial, epipolar
 from .atomic import atomic_path
 from .sampling import Luts
 from .shadow_map import CASCADE_COLORS, Camera, ShadowCascades, select_cascade, visibility
@@ -50,6 +50,18 @@ class PassSettings:
     scattering_scale: float = 0.5
     lighting_only: bool = False
     sun_strength: float = 10.0
+    scattering_technique: str = "BRUTE_FORCE"        # or "EPIPOLAR_SAMPLING" (lut_gen.epipolar)
+    epipolar_slices: int = 512
+    samples_per_slice: int = 256
+    initial_sample_step: int = 16
+    epipole_sampling_density: int = 2
+    refinement_threshold: float = 0.03
+
+    def epipolar_settings(self):
+        return epipolar.EpipolarSettings(
+            slices=self.epipolar_slices, samples=self.samples_per_slice, steps=self.num_integration_steps,
+            initial_sample_step=self.initial_sample_step, epipole_sampling_density=self.epipole_sampling_density,
+            refinement_threshold=self.refinement_threshold)
 
 
 def march_ends(camera: Camera, directions, position, depth, far: float):
@@ -78,15 +90,30 @@ def scattering_pass(luts: Luts, image, position, depth, camera: Camera, sun_dire
     unshadowed = aerial.segment_inscattering(luts, camera.position, end, sun)
     out = np.where(geometry[..., None], surface + unshadowed * scale, image)
     if settings.enable_light_shafts and cascades is not None:
-        def is_lit(points):
-            return visibility(cascades, points, camera, settings.smooth_shadows,
-                              settings.best_cascade_search, settings.first_cascade_to_ray_march)
-        shafts = aerial.light_shafts(luts, camera.position, end, sun, is_lit, settings.num_integration_steps,
-                                     settings.single_scattering_mode, settings.multiple_scattering_mode)
+        shafts = light_shafts(luts, camera, end, sun, cascades, settings, width, height)
         out = out + (shafts - unshadowed) * scale
     if settings.show_cascades and cascades is not None:
         out = np.where(geometry[..., None], out * cascade_tint(cascades, end, camera, settings), out)
     return out
+
+
+def light_shafts(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades, settings: PassSettings,
+                 width: int, height: int) -> np.ndarray:
+    """Shadowed in-scattering per unit sun of every pixel, with the settings' technique."""
+    if settings.scattering_technique == "EPIPOLAR_SAMPLING":
+        wanted = settings.epipolar_settings()
+        frame = epipolar.frame_for(camera, sun, width, height, float(cascades.far_depths[-1]), wanted)
+        tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
+                                       settings.best_cascade_search, settings.first_cascade_to_ray_march, luts,
+                                       settings.single_scattering_mode == "INTEGRATION")
+        return epipolar.light_shafts(luts, camera, end, frame, tables, settings.single_scattering_mode,
+                                     settings.multiple_scattering_mode)
+
+    def is_lit(points):
+        return visibility(cascades, points, camera, settings.smooth_shadows,
+                          settings.best_cascade_search, settings.first_cascade_to_ray_march)
+    return aerial.light_shafts(luts, camera.position, end, sun, is_lit, settings.num_integration_steps,
+                               settings.single_scattering_mode, settings.multiple_scattering_mode)
 
 
 def cascade_tint(cascades: ShadowCascades, points, camera: Camera, settings: PassSettings):

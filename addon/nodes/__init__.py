@@ -1,5 +1,5 @@
 """Node-group builders: one module per group, all on top of builder.Graph."""
-from . import frame_values, lookup
+from . import epipolar, frame_values, lookup
 from .aerial import GROUP_NAME as AERIAL_GROUP, build_aerial_group
 from .frame_values import GROUP_NAME as FRAME_VALUES_GROUP, build_frame_values_group
 from .inscattering import build_section_group, lookup_group_name, section_group_name

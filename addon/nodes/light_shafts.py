@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from ...lut_gen import shadow_map
 from ...lut_gen.scattering_pass import MIN_FORWARD_COSINE
 from ...lut_gen.atmosphere import RAYLEIGH_PHASE_NORM
+from . import epipolar
 from .aerial import PASS_INPUTS
 from .builder import group_io, new_group
 from .inscattering import section_node
@@ -43,12 +44,24 @@ class ShaftLayout:
     smooth: bool = True
     best_search: bool = True
     resolution: int = 1024
+    technique: str = "BRUTE_FORCE"
+    slices: int = 0                 # epipolar table size (0 for brute force)
+    samples: int = 0
+
+    @property
+    def epipolar(self) -> bool:
+        return self.technique == "EPIPOLAR_SAMPLING"
 
     @classmethod
-    def from_settings(cls, settings):
+    def from_settings(cls, settings, technique=None):
+        """``technique`` overrides the setting (the add-on falls back to brute force where
+        epipolar sampling cannot serve the frame)."""
+        technique = technique or settings.scattering_technique
+        epipolar = technique == "EPIPOLAR_SAMPLING"
         return cls(settings.num_integration_steps, settings.num_cascades, settings.single_scattering_mode,
                    settings.multiple_scattering_mode, settings.smooth_shadows, settings.best_cascade_search,
-                   int(settings.shadow_map_resolution))
+                   int(settings.shadow_map_resolution), technique,
+                   settings.epipolar_slices if epipolar else 0, settings.samples_per_slice if epipolar else 0)
 
     def as_key(self) -> str:
         return repr(tuple(self.__dict__.values()))
@@ -185,13 +198,15 @@ MAIN_INPUTS = PASS_INPUTS + [
 ]
 
 
-def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params, layout: ShaftLayout):
-    """(Re)build "OLS Light Shafts" and its sub-groups for ``layout``."""
+def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params, layout: ShaftLayout,
+                             epipolar_images=(None, None)):
+    """(Re)build "OLS Light Shafts" and its sub-groups for ``layout``; the epipolar technique
+    reads ``epipolar_images`` (lit, integral or None) instead of marching."""
     shadow_test_tree = build_shadow_test_group(layout, atlas_image, parameter_image)
     integration = build_integration_group(optical_image, params)
     tree = new_group(GROUP_NAME, "CompositorNodeTree")
     tree["ols_layout"] = layout.as_key()
-    inputs = MAIN_INPUTS + SHARED_INPUTS + cascade_inputs(layout.cascades)
+    inputs = MAIN_INPUTS + SHARED_INPUTS + cascade_inputs(layout.cascades) + (epipolar.INPUTS if layout.epipolar else [])
     g, gin, gout = group_io(tree, inputs, [("Image", "NodeSocketColor", None)])
     camera, forward = gin.outputs["Camera Position"], gin.outputs["Camera Forward"]
     sun = g.vmath("NORMALIZE", gin.outputs["Sun Direction"])
@@ -211,7 +226,6 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     ray = g.vmath("SUBTRACT", end, camera)
     length = g.vmath("LENGTH", ray)
     direction = g.vscale(ray, g.div(1.0, g.math("MAXIMUM", length, 1e-9)))
-    step = g.div(length, float(layout.steps))
 
     def shadow_test(point):
         node = g.node("CompositorNodeGroup")
@@ -221,24 +235,11 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
             g.links.new(gin.outputs[name], node.inputs[name])
         return node
 
-    lit_length, first_lit, integrated, net_density = 0.0, NEVER, None, (0.0, 0.0, 0.0)
-    for i in range(layout.steps):
-        t = g.mul(step, i + 0.5)
-        point = g.vmath("MULTIPLY_ADD", direction, g.combine(t, t, t), camera)
-        lit = shadow_test(point).outputs["Lit"]
-        lit_length = g.add(lit_length, lit)
-        unlit = g.math("LESS_THAN", lit, 1e-6)
-        first_lit = g.math("MINIMUM", first_lit, g.mul_add(unlit, NEVER, g.mul(step, float(i))))
-        if layout.single_mode == "INTEGRATION":
-            node = g.node("CompositorNodeGroup")
-            node.node_tree = integration
-            for name, value in (("Point", point), ("Direction", direction), ("Sun Direction", sun), ("Lit", lit),
-                                ("Step", step), ("Net Density Before", net_density)):
-                g.feed(node.inputs[name], value)
-            net_density = node.outputs["Net Density After"]
-            integrated = node.outputs["Radiance"] if integrated is None else g.vmath("ADD", integrated, node.outputs["Radiance"])
-    lit_length = g.mul(lit_length, step)
-    first_lit = g.math("MINIMUM", first_lit, length)
+    if layout.epipolar:
+        lit_length, first_lit, integrated = epipolar.look_up(g, gin, direction, length, sun, layout, *epipolar_images)
+    else:
+        lit_length, first_lit, integrated = _march(g, gin, camera, direction, length, sun, layout, shadow_test,
+                                                   integration)
 
     def transmittance_to(point):
         return segment_transmittance_node(g, camera, point, direction)
@@ -280,3 +281,28 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
 
     g.links.new(g.with_alpha_of(gin.outputs["Image"], result), gout.inputs["Image"])
     return tree
+
+
+def _march(g, gin, camera, direction, length, sun, layout: ShaftLayout, shadow_test, integration):
+    """Brute force: (lit length, first lit, integrated or None) from ``layout.steps`` shadow
+    tests at the step centres of the pixel's ray."""
+    step = g.div(length, float(layout.steps))
+    lit_length, first_lit, integrated, net_density = 0.0, NEVER, None, (0.0, 0.0, 0.0)
+    for i in range(layout.steps):
+        t = g.mul(step, i + 0.5)
+        point = g.vmath("MULTIPLY_ADD", direction, g.combine(t, t, t), camera)
+        lit = shadow_test(point).outputs["Lit"]
+        lit_length = g.add(lit_length, lit)
+        unlit = g.math("LESS_THAN", lit, 1e-6)
+        first_lit = g.math("MINIMUM", first_lit, g.mul_add(unlit, NEVER, g.mul(step, float(i))))
+        if layout.single_mode == "INTEGRATION":
+            node = g.node("CompositorNodeGroup")
+            node.node_tree = integration
+            for name, value in (("Point", point), ("Direction", direction), ("Sun Direction", sun), ("Lit", lit),
+                                ("Step", step), ("Net Density Before", net_density)):
+                g.feed(node.inputs[name], value)
+            net_density = node.outputs["Net Density After"]
+            integrated = node.outputs["Radiance"] if integrated is None else g.vmath("ADD", integrated, node.outputs["Radiance"])
+    lit_length = g.mul(lit_length, step)
+    first_lit = g.math("MINIMUM", first_lit, length)
+    return lit_length, first_lit, integrated

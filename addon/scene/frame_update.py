@@ -15,7 +15,7 @@ import numpy as np
 
 from ...lut_gen import scattering_pass
 from .. import nodes
-from . import compositor, luts, shadow_maps
+from . import compositor, epipolar_tables, luts, shadow_maps
 
 _state = {"key": None, "geometry_changed": True, "rendering": False}
 
@@ -26,9 +26,9 @@ def shafts_node(scene):
     return node if node is not None and node.node_tree is not None else None
 
 
-def write_frame_values(scene, depsgraph=None, cascades=None):
-    """Camera and sun (and, given, the cascades) into "OLS Frame Values"; written only when a
-    value changed (this also runs from depsgraph handlers)."""
+def write_frame_values(scene, depsgraph=None, cascades=None, extra=None):
+    """Camera and sun (and, given, the cascades and ``extra`` rows) into "OLS Frame Values";
+    written only when a value changed (this also runs from depsgraph handlers)."""
     image = bpy.data.images.get(compositor.FRAME_IMAGE)
     if image is None or scene.camera is None:
         return
@@ -39,6 +39,7 @@ def write_frame_values(scene, depsgraph=None, cascades=None):
         return                  # no sun or an orthographic camera: the operators report it
     if cascades is not None:
         values.update(shadow_maps.frame_values(cascades))
+    values.update(extra or {})
     rows = len(nodes.frame_values.ROWS)
     previous = None
     if tuple(image.size) == (1, rows):
@@ -58,7 +59,16 @@ def _frame_key(scene, depsgraph):
             tuple(camera.data.view_frame(scene=scene)[0]) if camera else None, tuple(sun), strength,
             settings.shadow_map_resolution, settings.num_cascades, settings.cascade_partitioning_factor,
             settings.enable_light_shafts, settings.enable_light_scattering,
-            scene.render.resolution_x, scene.render.resolution_y)
+            scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage,
+            epipolar_tables.technique(settings), epipolar_tables.settings_for(settings), settings.single_scattering_mode,
+            settings.smooth_shadows, settings.best_cascade_search, settings.first_cascade_to_ray_march)
+
+
+def _numpy_luts(scene):
+    if scene.ols.single_scattering_mode != "INTEGRATION":
+        return None
+    from . import wiring
+    return wiring.bake_info(scene).numpy_luts()
 
 
 def update_frame(scene, depsgraph) -> bool:
@@ -71,11 +81,15 @@ def update_frame(scene, depsgraph) -> bool:
     if key == _state["key"] and not _state["geometry_changed"]:
         return False
     node = shafts_node(scene)
-    cascades = None
+    cascades, extra = None, None
     if node is not None and not node.mute:
         cascades = shadow_maps.render(scene, depsgraph)
         shadow_maps.write_images(cascades)
-    write_frame_values(scene, depsgraph, cascades)
+        if node.node_tree.get("ols_layout", "").find("EPIPOLAR_SAMPLING") >= 0:
+            sun, _ = shadow_maps.sun_state(scene, depsgraph)
+            extra = epipolar_tables.update(scene, shadow_maps.camera_model(scene, depsgraph), sun, cascades,
+                                           _numpy_luts(scene))
+    write_frame_values(scene, depsgraph, cascades, extra)
     _state.update(key=key, geometry_changed=False)
     return True
 

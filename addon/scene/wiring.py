@@ -13,7 +13,7 @@ import bpy
 from ... import lut_gen
 from .. import nodes
 from ...lut_gen.sampling import TABLES_WITH_MIE
-from . import compositor, drivers, frame_update, luts, shadow_maps, skylight, sun as sun_lamps
+from . import compositor, drivers, epipolar_tables, frame_update, luts, shadow_maps, skylight, sun as sun_lamps
 
 WORLD_NAME = "OLS World"
 TERRAIN_MATERIAL = "OLS Terrain"
@@ -61,7 +61,9 @@ def build_light_shafts(scene, optical_image, params):
     """(Re)build the light-shaft groups for the scene's structural settings (ShaftLayout)."""
     settings = scene.ols
     atlas, table = shadow_maps.ensure_images(int(settings.shadow_map_resolution), settings.num_cascades)
-    nodes.build_light_shaft_groups(optical_image, atlas, table, params, nodes.ShaftLayout.from_settings(settings))
+    layout = nodes.ShaftLayout.from_settings(settings, epipolar_tables.technique(settings))
+    nodes.build_light_shaft_groups(optical_image, atlas, table, params, layout,
+                                   epipolar_tables.ensure_images(layout))
 
 
 def match_light_shaft_layout(scene) -> bool:
@@ -71,7 +73,8 @@ def match_light_shaft_layout(scene) -> bool:
     info = bake_info(scene)
     if group is None or info is None:
         return False
-    if (group.get("ols_layout") == nodes.ShaftLayout.from_settings(scene.ols).as_key()
+    layout = nodes.ShaftLayout.from_settings(scene.ols, epipolar_tables.technique(scene.ols))
+    if (group.get("ols_layout") == layout.as_key() and epipolar_tables.images_intact(layout)
             and shadow_maps.images_intact(bpy.data.node_groups.get(nodes.SHADOW_TEST_GROUP))):
         return False
     build_light_shafts(scene, bpy.data.images[luts.image_name("optical_depth", info.key)], info.params)
@@ -191,6 +194,13 @@ class BakeInfo:
             raise FileNotFoundError(f"the images of bake {key} are not loaded; run Set Up Scene")
         self.params, self.dims = lut_gen.exr_io.read_header_params(Path(bpy.path.abspath(self.multiple.filepath)).parent)
         self.origin_transmittance = sun_lamps.OriginTransmittance(optical_depth, self.params)
+        self._luts = None
+
+    def numpy_luts(self):
+        """The bake as lut_gen.Luts (read on first use: the epipolar INTEGRATION mode needs it)."""
+        if self._luts is None:
+            self._luts = lut_gen.load(Path(bpy.path.abspath(self.multiple.filepath)).parent, params=self.params)
+        return self._luts
 
 
 _bake_info = {}
@@ -238,7 +248,7 @@ def unwire_scene(scene):
     """Restore the world, materials and compositor the scene had before wiring."""
     compositor.unwire_compositor(scene)
     if not any(other.get(WIRED_KEY) for other in bpy.data.scenes if other != scene):
-        shadow_maps.remove_images(compositor.FRAME_IMAGE)
+        shadow_maps.remove_images(compositor.FRAME_IMAGE, epipolar_tables.LIT_IMAGE, epipolar_tables.INTEGRAL_IMAGE)
     previous = scene.get(PREVIOUS_WORLD)
     scene.world = bpy.data.worlds.get(previous) if previous else None
     for obj in scene.objects:

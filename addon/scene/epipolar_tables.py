@@ -1,0 +1,88 @@
+"""The epipolar technique's per-frame tables (lut_gen.epipolar) in the images the "OLS Light
+Shafts" group reads, and the choice of technique for the scene's settings."""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from ...lut_gen import epipolar
+from .. import nodes
+from . import luts
+
+LIT_IMAGE = nodes.epipolar.LIT_IMAGE
+INTEGRAL_IMAGE = nodes.epipolar.INTEGRAL_IMAGE
+
+
+def table_texels(settings) -> int:
+    return (settings.epipolar_slices + 1) * settings.samples_per_slice * settings.num_integration_steps
+
+
+def technique(settings) -> str:
+    """The technique the pass runs: the setting, except that epipolar tables larger than
+    lut_gen.epipolar.MAX_TABLE_TEXELS fall back to brute force (too_large says so)."""
+    if settings.scattering_technique == "EPIPOLAR_SAMPLING" and table_texels(settings) <= epipolar.MAX_TABLE_TEXELS:
+        return "EPIPOLAR_SAMPLING"
+    return "BRUTE_FORCE"
+
+
+def too_large(settings) -> str | None:
+    """Why the epipolar technique falls back to brute force, or None."""
+    if settings.scattering_technique != "EPIPOLAR_SAMPLING" or technique(settings) == "EPIPOLAR_SAMPLING":
+        return None
+    return (f"the epipolar tables of {settings.epipolar_slices} slices x {settings.samples_per_slice} samples x "
+            f"{settings.num_integration_steps} steps exceed {epipolar.MAX_TABLE_TEXELS:,} values; brute force ray "
+            "marching runs instead (lower the slices, samples or steps to use epipolar sampling)")
+
+
+def settings_for(settings) -> epipolar.EpipolarSettings:
+    return epipolar.EpipolarSettings(
+        slices=settings.epipolar_slices, samples=settings.samples_per_slice, steps=settings.num_integration_steps,
+        initial_sample_step=settings.initial_sample_step, epipole_sampling_density=settings.epipole_sampling_density,
+        refinement_threshold=settings.refinement_threshold, refinement_criterion=settings.refinement_criterion,
+        optimize_sample_locations=settings.optimize_sample_locations,
+        use_min_max=settings.use_min_max_optimization)
+
+
+def ensure_images(layout):
+    """(lit image, integral image or None) at the layout's size; (None, None) for brute force."""
+    if not layout.epipolar:
+        return None, None
+    width, height = nodes.epipolar.image_size(layout.slices, layout.samples, layout.steps)
+    images = []
+    for name, wanted in ((LIT_IMAGE, True), (INTEGRAL_IMAGE, layout.single_mode == "INTEGRATION")):
+        if not wanted:
+            images.append(None)
+            continue
+        image = bpy.data.images.get(name)
+        if image is None or tuple(image.size) != (width, height):
+            image = luts.write_data_image(name, np.zeros((height, width, 4), dtype=np.float32))
+        images.append(image)
+    return tuple(images)
+
+
+def images_intact(layout) -> bool:
+    if not layout.epipolar:
+        return True
+    width, height = nodes.epipolar.image_size(layout.slices, layout.samples, layout.steps)
+    names = [LIT_IMAGE] + ([INTEGRAL_IMAGE] if layout.single_mode == "INTEGRATION" else [])
+    return all(bpy.data.images.get(n) is not None and tuple(bpy.data.images[n].size) == (width, height) for n in names)
+
+
+def update(scene, camera, sun_direction, cascades, luts_object=None) -> dict:
+    """Build the frame's tables, write them into the images; the "OLS Frame Values" rows.
+    ``luts_object`` (lut_gen.Luts) only for the INTEGRATION mode."""
+    settings = scene.ols
+    percent = scene.render.resolution_percentage / 100.0
+    width = max(int(scene.render.resolution_x * percent), 1)
+    height = max(int(scene.render.resolution_y * percent), 1)
+    wanted = settings_for(settings)
+    frame = epipolar.frame_for(camera, sun_direction, width, height, float(cascades.far_depths[-1]), wanted)
+    integrate = settings.single_scattering_mode == "INTEGRATION"
+    tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
+                                   settings.best_cascade_search, settings.first_cascade_to_ray_march,
+                                   luts_object, integrate)
+    lit, integral = nodes.epipolar.pack(tables)
+    luts.write_data_image(LIT_IMAGE, lit)
+    if integral is not None:
+        luts.write_data_image(INTEGRAL_IMAGE, integral)
+    return frame.as_values()

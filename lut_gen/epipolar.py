@@ -1,0 +1,345 @@
+"""Epipolar sampling of the light shafts (seed 001), as per-frame tables: the numpy twin of the
+"OLS Light Shafts" group's epipolar technique, and what the add-on writes before each frame.
+
+Every view ray of the frame lies in a plane through the camera that holds the sun direction
+(an epipolar slice, seed 001 section 4). A ray is named by two angles: ``phi``, the slice's turn
+about the sun axis, and ``theta``, the ray's angle from the sun within its slice. The epipole is
+theta = 0, the anti-solar point theta = pi, so the epipole on screen, off screen or behind the
+camera needs no special case, and no slice has a seam (a full turn of phi repeats its first
+slice as its last).
+
+Before the render, for a grid of slices x samples (phi x theta) covering the screen, the rays
+are marched through the shadow cascades at ``K`` distances from the camera and the table keeps,
+per distance t, the lit length L(t), the first lit distance F(t) and, for the INTEGRATION mode,
+the shadowed single-scattering integral S(t). Only every ``initial_sample_step``-th sample of a
+slice (denser near the epipole) is marched; where two marched neighbours disagree by more than
+the refinement threshold the samples between them are marched too, the rest interpolated.
+
+In the compositor each pixel finds its slice and sample, reads L, F and S at its own depth
+(trilinear), and applies the scattering modes (lut_gen.aerial.apply_modes). Depth breaks cost
+nothing: no pixel borrows another's depth.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import aerial
+from .shadow_map import Camera, ShadowCascades, visibility
+
+MIN_NEAR = 1.0                  # m: the distance grid is geometric from here
+BORDER_POINTS = 256             # points per screen edge when finding the angle ranges
+MAX_TABLE_TEXELS = 1 << 24      # (slices + 1) x samples x distances kept at most (memory)
+
+
+@dataclass(frozen=True)
+class EpipolarSettings:
+    """The sample's epipolar controls (scene.ols names)."""
+    slices: int = 512
+    samples: int = 256
+    steps: int = 32                     # distances per ray (Num integration steps)
+    initial_sample_step: int = 16
+    epipole_sampling_density: int = 2
+    refinement_threshold: float = 0.03
+    refinement_criterion: str = "INSCATTERING"
+    optimize_sample_locations: bool = True
+    use_min_max: bool = True
+
+    def checked(self) -> "EpipolarSettings":
+        for name in ("slices", "samples", "steps", "initial_sample_step", "epipole_sampling_density"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, np.integer)) or value < 1:
+                raise ValueError(f"epipolar {name.replace('_', ' ')} must be a positive integer, got {value!r}")
+        if self.slices < 2 or self.samples < 2 or self.steps < 2:
+            raise ValueError("epipolar sampling needs at least 2 slices, 2 samples and 2 steps")
+        if not np.isfinite(self.refinement_threshold) or self.refinement_threshold < 0:
+            raise ValueError(f"the refinement threshold must be >= 0, got {self.refinement_threshold!r}")
+        return self
+
+
+@dataclass(frozen=True)
+class EpipolarFrame:
+    """The parametrisation of one frame: the sun, two axes across it, the angle ranges the
+    screen covers (``phi0`` + [0, phi_span], ``theta0`` + [0, theta_span]), and the distance
+    grid t_k = t_max ((1 + a)^(k / (K - 1)) - 1) / a."""
+    sun: np.ndarray
+    axis1: np.ndarray
+    axis2: np.ndarray
+    phi0: float
+    phi_span: float
+    theta0: float
+    theta_span: float
+    t_max: float
+    growth: float
+    slices: int
+    samples: int
+    steps: int
+
+    @property
+    def full_turn(self) -> bool:
+        return self.phi_span >= 2.0 * np.pi - 1e-9
+
+    def distances(self) -> np.ndarray:
+        k = np.arange(self.steps) / (self.steps - 1)
+        return self.t_max * np.expm1(k * np.log1p(self.growth)) / self.growth
+
+    def distance_to_x(self, t):
+        """Fractional distance-node index of distances ``t``."""
+        t = np.clip(np.asarray(t, dtype=np.float64), 0.0, self.t_max)
+        return (self.steps - 1) * np.log1p(self.growth * t / self.t_max) / np.log1p(self.growth)
+
+    def angles(self, directions):
+        """(phi, theta) of unit directions (..., 3)."""
+        d = np.asarray(directions, dtype=np.float64)
+        theta = np.arccos(np.clip(d @ self.sun, -1.0, 1.0))
+        phi = np.arctan2(d @ self.axis2, d @ self.axis1)
+        return phi, theta
+
+    def direction_to_x(self, directions):
+        """(slice coordinate in [0, slices], sample coordinate in [0, samples - 1])."""
+        phi, theta = self.angles(directions)
+        u = np.mod(phi - self.phi0, 2.0 * np.pi) if self.full_turn else phi - self.phi0
+        x = np.clip(u / self.phi_span, 0.0, 1.0) * self.slices
+        y = np.clip((theta - self.theta0) / self.theta_span, 0.0, 1.0) * (self.samples - 1)
+        return x, y
+
+    def node_directions(self) -> np.ndarray:
+        """(slices + 1, samples, 3) unit directions of the grid nodes."""
+        phi = self.phi0 + self.phi_span * np.arange(self.slices + 1) / self.slices
+        theta = self.theta0 + self.theta_span * np.arange(self.samples) / (self.samples - 1)
+        across = np.cos(phi)[:, None] * self.axis1 + np.sin(phi)[:, None] * self.axis2      # (S+1, 3)
+        return (np.cos(theta)[None, :, None] * self.sun + np.sin(theta)[None, :, None] * across[:, None, :])
+
+    def as_values(self) -> dict:
+        """The "OLS Frame Values" rows the node group reads."""
+        return {"Epipolar Axis 1": self.axis1, "Epipolar Axis 2": self.axis2,
+                "Epipolar Phi": (self.phi0, self.phi_span, float(self.full_turn)),
+                "Epipolar Theta": (self.theta0, self.theta_span, 0.0),
+                "Epipolar Depth": (self.t_max, self.growth, 0.0)}
+
+
+def _unit(v):
+    return v / np.linalg.norm(v)
+
+
+def frame_for(camera: Camera, sun_direction, width: int, height: int, far: float,
+              settings: EpipolarSettings) -> EpipolarFrame:
+    """The parametrisation that covers the camera's screen out to view depth ``far``."""
+    settings = settings.checked()
+    sun = _unit(np.asarray(sun_direction, dtype=np.float64))
+    forward = camera.forward
+    across = forward - sun * (forward @ sun)
+    if np.linalg.norm(across) < 1e-6:           # looking straight at (or away from) the sun
+        across = np.asarray(camera.rotation)[:, 1] - sun * (np.asarray(camera.rotation)[:, 1] @ sun)
+    axis1 = _unit(across)
+    axis2 = np.cross(sun, axis1)
+    frame = EpipolarFrame(sun, axis1, axis2, 0.0, 1.0, 0.0, 1.0, 1.0, 1.0, settings.slices, settings.samples,
+                          settings.steps)
+    border = _screen_border(camera, width, height)
+    phi, theta = frame.angles(border)
+    tx, ty = camera.tan_half_fov
+    rotation = np.asarray(camera.rotation, dtype=np.float64)
+    sun_inside = _on_screen(rotation, sun, tx, ty)
+    anti_inside = _on_screen(rotation, -sun, tx, ty)
+    theta_lo = 0.0 if sun_inside else float(theta.min())
+    theta_hi = np.pi if anti_inside else float(theta.max())
+    if sun_inside or anti_inside:
+        phi_lo, phi_span = -np.pi, 2.0 * np.pi
+    else:                                       # the screen subtends less than pi around the sun axis
+        phi_lo, phi_span = float(phi.min()), float(phi.max() - phi.min())
+    # Half a pixel's angle of margin so border pixels interpolate inside the grid.
+    pixel = 2.0 * max(tx / width, ty / height)
+    theta_lo, theta_hi = max(theta_lo - pixel, 0.0), min(theta_hi + pixel, np.pi)
+    if phi_span < 2.0 * np.pi:
+        phi_lo, phi_span = phi_lo - pixel, min(phi_span + 2.0 * pixel, 2.0 * np.pi)
+    corner_cos = 1.0 / np.sqrt(1.0 + tx * tx + ty * ty)
+    t_max = max(far / max(corner_cos, aerial_min_forward()), 2.0 * MIN_NEAR)
+    return EpipolarFrame(sun, axis1, axis2, phi_lo, max(phi_span, 1e-6), theta_lo, max(theta_hi - theta_lo, 1e-6),
+                         t_max, t_max / MIN_NEAR, settings.slices, settings.samples, settings.steps)
+
+
+def aerial_min_forward():
+    from .scattering_pass import MIN_FORWARD_COSINE
+    return MIN_FORWARD_COSINE
+
+
+def _screen_border(camera: Camera, width: int, height: int) -> np.ndarray:
+    tx, ty = camera.tan_half_fov
+    s = np.linspace(-1.0, 1.0, BORDER_POINTS)
+    one = np.ones_like(s)
+    xy = np.concatenate([np.stack([s, -one], -1), np.stack([s, one], -1), np.stack([-one, s], -1),
+                         np.stack([one, s], -1)])
+    local = np.stack([xy[:, 0] * tx, xy[:, 1] * ty, -np.ones(len(xy))], axis=-1)
+    world = local @ np.asarray(camera.rotation, dtype=np.float64).T
+    return world / np.linalg.norm(world, axis=-1, keepdims=True)
+
+
+def _on_screen(rotation, direction, tx, ty) -> bool:
+    local = rotation.T @ direction
+    if local[2] >= 0.0:                         # behind the camera
+        return False
+    x, y = local[0] / -local[2], local[1] / -local[2]
+    return abs(x) <= tx and abs(y) <= ty
+
+
+@dataclass
+class EpipolarTables:
+    """Per grid node (slices + 1, samples) and distance K: lit length, first lit distance,
+    (INTEGRATION) shadowed single scattering; ``marched`` flags the ray-marched samples."""
+    lit_length: np.ndarray
+    first_lit: np.ndarray
+    integrated: np.ndarray | None
+    marched: np.ndarray
+
+
+def initial_samples(samples: int, step: int, density: int) -> np.ndarray:
+    """Indices of the initially marched samples of a slice: every ``step``-th, and near the
+    epipole (the first eighth of the slice) every ``step / density``-th, as seed 001 places
+    them; the last sample always."""
+    step = max(int(step), 1)
+    near_step = max(step // max(int(density), 1), 1)
+    near = np.arange(0, max(samples // 8, 1), near_step)
+    rest = np.arange(0, samples, step)
+    return np.unique(np.concatenate([near, rest, [samples - 1]]))
+
+
+def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Camera, smooth: bool,
+          best_search: bool, first_cascade: int, luts=None, integrate: bool = False):
+    """(lit length, first lit, integrated or None) at the frame's distances for rays
+    ``directions`` (n, 3): one shadow test per distance interval at its centre, as the brute
+    force march does per step."""
+    t = frame.distances()
+    centres = 0.5 * (t[1:] + t[:-1])
+    lengths = np.diff(t)
+    points = camera.position + directions[:, None, :] * centres[None, :, None]         # (n, K-1, 3)
+    lit = visibility(cascades, points, camera, smooth, best_search, first_cascade)
+    zero = np.zeros((len(directions), 1))
+    lit_length = np.concatenate([zero, np.cumsum(lit * lengths, axis=-1)], axis=-1)
+    # F(t): the start of the first interval with light among those before t, else t itself.
+    starts = np.where(lit > 0.0, t[None, :-1], np.inf)
+    first = np.minimum.accumulate(starts, axis=-1)
+    first_lit = np.minimum(np.concatenate([zero + np.inf, first], axis=-1), t[None, :])
+    integrated = None
+    if integrate:
+        sun = frame.sun
+        terms = aerial.integration_terms(luts, camera.position, directions, points,
+                                         np.broadcast_to(lengths, lit.shape), sun)
+        integrated = np.concatenate([np.zeros((len(directions), 1, 3)),
+                                     np.cumsum(terms * lit[..., None], axis=-2)], axis=-2)
+    return lit_length, first_lit, integrated
+
+
+def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera, settings: EpipolarSettings,
+                 smooth: bool = True, best_search: bool = True, first_cascade: int = 0, luts=None,
+                 integrate: bool = False) -> EpipolarTables:
+    """March the initial samples of every slice, refine between marched neighbours that
+    disagree, and interpolate the rest along each slice."""
+    settings = settings.checked()
+    nodes = frame.node_directions()
+    n_slices, n_samples = nodes.shape[:2]
+    K = frame.steps
+    t = frame.distances()
+    lit_length = np.zeros((n_slices, n_samples, K))
+    first_lit = np.zeros((n_slices, n_samples, K))
+    integrated = np.zeros((n_slices, n_samples, K, 3)) if integrate else None
+    marched = np.zeros((n_slices, n_samples), dtype=bool)
+
+    def run(mask):
+        idx = np.nonzero(mask & ~marched)
+        if len(idx[0]) == 0:
+            return
+        chunk = max(1, (1 << 21) // K)
+        for start in range(0, len(idx[0]), chunk):
+            sel = (idx[0][start:start + chunk], idx[1][start:start + chunk])
+            L, F, S = march(frame, nodes[sel], cascades, camera, smooth, best_search, first_cascade, luts, integrate)
+            lit_length[sel], first_lit[sel] = L, F
+            if integrate:
+                integrated[sel] = S
+        marched[idx] = True
+
+    initial = np.zeros(n_samples, dtype=bool)
+    initial[initial_samples(n_samples, settings.initial_sample_step, settings.epipole_sampling_density)] = True
+    run(np.broadcast_to(initial, marched.shape))
+    if settings.refinement_threshold > 0:
+        # Between consecutive marched samples whose lit fractions differ by more than the
+        # threshold at any distance, march every sample (a shaft edge runs between them).
+        for _ in range(2):
+            need = _disagreeing_spans(lit_length, marched, t, settings.refinement_threshold)
+            if not need.any():
+                break
+            run(need)
+    _fill_between_marched(lit_length, marched)
+    _fill_between_marched(first_lit, marched)
+    if integrate:
+        _fill_between_marched(integrated, marched)
+    return EpipolarTables(lit_length, first_lit, integrated, marched)
+
+
+def _disagreeing_spans(lit_length, marched, t, threshold):
+    """(slices, samples) bool: unmarched samples lying between two marched ones whose lit
+    fraction L(t) / t differs by more than ``threshold`` at some distance."""
+    fraction = lit_length[..., 1:] / t[1:]
+    need = np.zeros(marched.shape, dtype=bool)
+    for s in range(marched.shape[0]):
+        idx = np.flatnonzero(marched[s])
+        if len(idx) < 2:
+            continue
+        diff = np.abs(fraction[s, idx[1:]] - fraction[s, idx[:-1]]).max(axis=-1)
+        for a, b in zip(idx[:-1][diff > threshold], idx[1:][diff > threshold]):
+            need[s, a + 1:b] = True
+    return need
+
+
+def _fill_between_marched(table, marched):
+    """Linear interpolation along each slice's samples from its marched ones."""
+    samples = np.arange(marched.shape[1])
+    for s in range(marched.shape[0]):
+        idx = np.flatnonzero(marched[s])
+        if len(idx) == len(samples):
+            continue
+        flat = table[s].reshape(len(samples), -1)
+        for c in range(flat.shape[1]):
+            flat[:, c] = np.interp(samples, idx, flat[idx, c])
+        table[s] = flat.reshape(table[s].shape)
+
+
+def look_up(frame: EpipolarFrame, tables: EpipolarTables, directions, distances):
+    """(lit length, first lit, integrated or None) for pixel rays ``directions`` (..., 3) at
+    their own distances (...): trilinear in (slice, sample, distance)."""
+    x, y = frame.direction_to_x(directions)
+    z = frame.distance_to_x(distances)
+    shape = np.shape(distances)
+    coords = [np.asarray(c).reshape(-1) for c in (x, y, z)]
+
+    def interp(table):
+        i0 = np.minimum(np.floor(coords[0]).astype(int), table.shape[0] - 2)
+        j0 = np.minimum(np.floor(coords[1]).astype(int), table.shape[1] - 2)
+        k0 = np.minimum(np.floor(coords[2]).astype(int), table.shape[2] - 2)
+        wi, wj, wk = coords[0] - i0, coords[1] - j0, coords[2] - k0
+        out = 0.0
+        for di, fi in ((0, 1 - wi), (1, wi)):
+            for dj, fj in ((0, 1 - wj), (1, wj)):
+                for dk, fk in ((0, 1 - wk), (1, wk)):
+                    w = fi * fj * fk
+                    v = table[i0 + di, j0 + dj, k0 + dk]
+                    out = out + (w[:, None] * v if v.ndim == 2 else w * v)
+        return out
+
+    lit_length = interp(tables.lit_length).reshape(shape)
+    first_lit = interp(tables.first_lit).reshape(shape)
+    integrated = None if tables.integrated is None else interp(tables.integrated).reshape(shape + (3,))
+    return np.minimum(lit_length, distances), np.minimum(first_lit, distances), integrated
+
+
+def light_shafts(luts, camera: Camera, end, frame: EpipolarFrame, tables: EpipolarTables,
+                 single_mode: str = "LUT", multiple_mode: str = "UNOCCLUDED") -> np.ndarray:
+    """(..., 3) shadowed in-scattering along camera -> end per unit sun, from the tables."""
+    aerial.check_modes(single_mode, multiple_mode)
+    ray = np.asarray(end, dtype=np.float64) - camera.position
+    length = np.linalg.norm(ray, axis=-1)
+    direction = ray / np.maximum(length, 1e-9)[..., None]
+    lit_length, first_lit, integrated = look_up(frame, tables, direction, length)
+    camera_position = np.broadcast_to(camera.position, ray.shape)
+    return aerial.apply_modes(luts, camera_position, np.asarray(end, dtype=np.float64), frame.sun, lit_length,
+                              first_lit, integrated, single_mode, multiple_mode)
