@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty
 
-from ..lut_gen.atmosphere import (DEFAULT_GROUND_ALBEDO, DEFAULT_RAYLEIGH_SCATTERING,
+from ..lut_gen.atmosphere import (DEFAULT_GROUND_ALBEDO, DEFAULT_MIE_SCATTERING, DEFAULT_RAYLEIGH_SCATTERING,
                                   AtmosphereParams, preset)
 
 CONTROL_SETS = ("BASIC", "ADDITIONAL", "TONE_MAPPING")
@@ -125,6 +125,8 @@ LATER_NOTES = {
 }
 LATER_NOTE = "(not built in this version)"
 
+# Mie scattering coefficient at aerosol density 1 for a white Mie colour (1/m).
+MIE_SCATTERING_SCALE = DEFAULT_MIE_SCATTERING[0]
 # The largest default Rayleigh coefficient (blue); the Rayleigh colour is relative to it.
 RAYLEIGH_SCATTERING_SCALE = max(DEFAULT_RAYLEIGH_SCATTERING)
 DEFAULT_RAYLEIGH_COLOR = tuple(c / RAYLEIGH_SCATTERING_SCALE for c in DEFAULT_RAYLEIGH_SCATTERING)
@@ -421,8 +423,8 @@ class OLSSettings(bpy.types.PropertyGroup):
     )
     mie_color: FloatVectorProperty(
         name="Mie Color",
-        description="Mie scattering coefficients per channel relative to the preset's aerosol (white: the "
-                    "preset's own; Clear Sky 6.4e-5, 8e-5, 1e-4 per metre, Sample 2013 2e-5)",
+        description="Mie scattering coefficients relative to the default aerosol (2e-5 per metre "
+                    "for white)",
         subtype='COLOR', size=3, default=DEFAULT_MIE_COLOR, min=0.0, soft_max=1.0, max=10.0,
         update=_rebake_soon,
     )
@@ -549,25 +551,23 @@ def atmosphere_params(settings) -> AtmosphereParams:
     and absorption map one to one; ground albedo and ozone column apply to the Clear Sky preset
     (Sample 2013 has neither). With custom scattering coefficients on, the Rayleigh coefficients
     are ``max(default Rayleigh) * rayleigh_color`` (so the default colour gives the default
-    coefficients) and the Mie coefficients the preset's, times ``mie_color`` per channel; off,
-    both are the preset's.
+    coefficients) and the Mie coefficients ``2e-5 * mie_color``; off, both are the defaults.
     """
-    name = "sample-2013" if settings.atmosphere_preset == "SAMPLE_2013" else "clear-sky"
     rayleigh = DEFAULT_RAYLEIGH_SCATTERING
-    mie = preset(name).mie_scattering
+    mie = DEFAULT_MIE_SCATTERING
     if settings.use_custom_scattering_coeffs:
         color = _f32_color(settings.rayleigh_color)
         if color != _f32_color(DEFAULT_RAYLEIGH_COLOR):
             rayleigh = tuple(RAYLEIGH_SCATTERING_SCALE * c for c in color)
         color = _f32_color(settings.mie_color)
         if color != _f32_color(DEFAULT_MIE_COLOR):
-            mie = tuple(m * c for m, c in zip(mie, color))
-    if name == "sample-2013":
-        return preset(name, rayleigh_scattering=rayleigh, mie_scattering=mie,
+            mie = tuple(MIE_SCATTERING_SCALE * c for c in color)
+    if settings.atmosphere_preset == "SAMPLE_2013":
+        return preset("sample-2013", rayleigh_scattering=rayleigh, mie_scattering=mie,
                       aerosol_density=_f32_value(settings.aerosol_density),
                       aerosol_absorption=_f32_value(settings.aerosol_absorption))
     return preset(
-        name,
+        "clear-sky",
         rayleigh_scattering=rayleigh,
         mie_scattering=mie,
         aerosol_density=_f32_value(settings.aerosol_density),

@@ -1,5 +1,8 @@
 """Light-shaft pass benchmark (Cycles CPU): the sample scene at 1280 x 720, 16 samples.
 
+Epipolar sampling (issue 12): the same pass with the epipolar technique, as a ratio of what the
+brute-force pass adds (goal <= 1/4, stretch 1/8).
+
 Issue goal: the scattering pass with light shafts at 32 steps adds <= 50% to a 16-sample
 Cycles render of the sample (defaults otherwise: single LUT, multiple UNOCCLUDED, 6 cascades,
 shadow map 1024).
@@ -89,7 +92,9 @@ def main():
     tree = scene.compositing_node_group
     settings = scene.ols
 
-    def configure(shafts=True, steps=args.steps, single="LUT", smooth=True):
+    def configure(shafts=True, steps=args.steps, single="LUT", smooth=True, technique="BRUTE_FORCE"):
+        if hasattr(settings, "scattering_technique"):
+            settings.scattering_technique = technique
         settings.enable_light_shafts = shafts
         settings.num_integration_steps = steps
         settings.single_scattering_mode = single
@@ -200,6 +205,7 @@ def main():
     aerial = compositor_only("aerial + tone", shafts=False)
     step_counts = sorted({8, 16, args.steps})
     per_steps = {n: compositor_only(f"aerial + shafts {n} + tone", steps=n) for n in step_counts}
+    epipolar = compositor_only(f"aerial + shafts {args.steps} EPIPOLAR + tone", technique="EPIPOLAR_SAMPLING")
     if not args.no_extras:
         compositor_only(f"shafts {args.steps}, single INTEGRATION, 1 run", runs=1, single="INTEGRATION")
         compositor_only(f"shafts {args.steps}, no PCF (1 tap), 1 run", runs=1, smooth=False)
@@ -228,6 +234,9 @@ def main():
     full_added = full_shafts - render_only
     print(f"pass alone: {added:.2f} s = {100 * added / render_only:.0f}% of the render (goal <= 50%)"
           f"   [full renders' difference: {full_added:.2f} s = {100 * full_added / render_only:.0f}%]")
+    epipolar_added = epipolar - empty
+    print(f"epipolar sampling: {epipolar_added:.2f} s = {epipolar_added / max(added, 1e-9):.2f}x of brute force "
+          f"(goal <= 0.25, stretch 0.125); {100 * epipolar_added / render_only:.0f}% of the render")
     xs = list(per_steps)
     mean_x, mean_y = sum(xs) / len(xs), sum(per_steps.values()) / len(xs)
     slope = (sum((x - mean_x) * (per_steps[x] - mean_y) for x in xs)

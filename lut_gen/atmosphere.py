@@ -37,17 +37,7 @@ def rayleigh_scattering_from_air(wavelengths_nm: Rgb = WAVELENGTHS_NM) -> Rgb:
 
 
 DEFAULT_RAYLEIGH_SCATTERING: Rgb = rayleigh_scattering_from_air()
-# The sample's aerosol: grey, optical depth 0.026 at 550 nm, g 0.76. Cleaner than almost any
-# real sky; the Sample 2013 preset keeps it.
-SAMPLE_MIE_SCATTERING: Rgb = (2e-5, 2e-5, 2e-5)
-SAMPLE_MIE_G = 0.76
-# A typical clear day's continental aerosol (the Clear Sky default): optical depth 0.106 at
-# 550 nm with the 1.2 km scale height and 10% absorption, Angstrom exponent ~1, asymmetry 0.7
-# (AERONET clear-sky climatology: AOD(550) 0.05-0.2, alpha 1-1.5, g 0.65-0.75). The sample's
-# aerosol gave a horizon too bright relative to the zenith and an aureole too peaked against the
-# CIE standard clear sky (RMS log10(L/Lz) 0.14 / 0.19 at sun 40 / 60 deg); this one 0.09 / 0.07.
-DEFAULT_MIE_SCATTERING: Rgb = (6.4e-5, 8e-5, 1e-4)
-DEFAULT_MIE_G = 0.7
+DEFAULT_MIE_SCATTERING: Rgb = (2e-5, 2e-5, 2e-5)
 # Lambertian albedo of the ground under the atmosphere: vegetation reflects 0.15-0.25 of the
 # visible, bare soil and rock 0.2-0.35, water under 0.1. 0.2 sits in the middle of the land
 # a terrain scene shows (Bruneton 2017 uses 0.1, Hosek-Wilkie's default is 0.3).
@@ -56,8 +46,7 @@ DEFAULT_GROUND_ALBEDO = 0.2
 
 @dataclass(frozen=True)
 class AtmosphereParams:
-    """The media of the sample (Yusov 2013) with a clear day's aerosol, plus Bruneton's ozone
-    layer, baked spectrally.
+    """The media of the sample (Yusov 2013) plus Bruneton's ozone layer, baked spectrally.
 
     ``mie_scattering`` is the coefficient at aerosol density 1; the effective Mie
     scattering is ``mie_scattering * aerosol_density`` and Mie extinction adds
@@ -76,7 +65,7 @@ class AtmosphereParams:
     mie_scale_height: float = 1200.0
     aerosol_density: float = 1.0
     aerosol_absorption: float = 0.1
-    mie_g: float = DEFAULT_MIE_G
+    mie_g: float = 0.76
     ozone: bool = True
     ozone_absorption: Rgb = field(default=OZONE_ABSORPTION)
     ozone_column: float = 300.0
@@ -179,9 +168,8 @@ def _spectrum():
 PRESETS = {
     # Spectral bake, ozone, ground: the colours of a real clear sky (the default).
     "clear-sky": {},
-    # The sample's own media: three wavelengths used as RGB, its aerosol, no ozone, no ground.
-    "sample-2013": {"spectral": False, "ozone": False, "ground_albedo": 0.0,
-                    "mie_scattering": SAMPLE_MIE_SCATTERING, "mie_g": SAMPLE_MIE_G},
+    # The sample's own media: three wavelengths used as RGB, no ozone.
+    "sample-2013": {"spectral": False, "ozone": False, "ground_albedo": 0.0},
 }
 
 

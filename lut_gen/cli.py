@@ -116,7 +116,12 @@ def build_parser() -> argparse.ArgumentParser:
     p_pass.add_argument("--single", choices=SINGLE_MODES, help="override the single scattering mode")
     p_pass.add_argument("--multiple", choices=MULTIPLE_MODES, help="override the multiple scattering mode")
     p_pass.add_argument("--no-shafts", action="store_true", help="aerial perspective only")
+    p_pass.add_argument("--technique", choices=sorted(TECHNIQUES),
+                        help="override the scattering technique (epipolar sampling or brute-force ray marching)")
     return parser
+
+
+TECHNIQUES = {"epipolar": "EPIPOLAR_SAMPLING", "brute-force": "BRUTE_FORCE"}
 
 
 def cmd_bake(args) -> int:
@@ -156,7 +161,8 @@ def cmd_pass(args) -> int:
     passes = load_render_passes(args.passes)
     camera, sun, cascades, settings = load_inputs(args.inputs)
     overrides = {"num_integration_steps": args.steps, "single_scattering_mode": args.single,
-                 "multiple_scattering_mode": args.multiple, "enable_light_shafts": False if args.no_shafts else None}
+                 "multiple_scattering_mode": args.multiple, "enable_light_shafts": False if args.no_shafts else None,
+                 "scattering_technique": TECHNIQUES.get(args.technique)}
     settings = dataclasses.replace(settings, **{k: v for k, v in overrides.items() if v is not None})
     if settings.num_integration_steps < 1:
         raise ValueError(f"--steps must be at least 1, got {settings.num_integration_steps}")

@@ -28,7 +28,7 @@ import numpy as np
 from . import aerial
 from .shadow_map import Camera, ShadowCascades, visibility
 
-MIN_NEAR = 1.0                  # m: the distance grid is geometric from here
+MIN_NEAR = 10.0                 # m: the distance grid is geometric from here (1 m: 4 dB worse on the sample)
 BORDER_POINTS = 256             # points per screen edge when finding the angle ranges
 MAX_TABLE_TEXELS = 1 << 24      # (slices + 1) x samples x distances kept at most (memory)
 
