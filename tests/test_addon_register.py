@@ -283,7 +283,7 @@ def test_panel(scene, addon_package):
                 assert enabled is False  # custom coefficients are off by default
             else:
                 assert enabled is True, name
-        notes = [e for e in log if e[0] == "label" and "compositor passes" in e[1]]
+        notes = [e for e in log if e[0] == "label" and "tooltips say why" in e[1]]
         assert bool(notes) == any(name in props.LATER_ISSUE for name in names)
         buttons = [e[1] for e in log if e[0] == "operator"]
         for idname in ("ols.setup_scene", "ols.bake_luts", "ols.render"):
