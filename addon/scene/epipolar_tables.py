@@ -54,7 +54,12 @@ def ensure_images(layout):
             images.append(None)
             continue
         image = bpy.data.images.get(name)
-        if image is None or tuple(image.size) != (width, height):
+        if image is not None and tuple(image.size) != (width, height):
+            # Image.scale leaves a large float image's pixel count stale (measured in bpy 5.0.1):
+            # make a new one; the groups are rebuilt on it right after.
+            bpy.data.images.remove(image)
+            image = None
+        if image is None:
             image = luts.write_data_image(name, np.zeros((height, width, 4), dtype=np.float32))
         images.append(image)
     return tuple(images)
