@@ -329,7 +329,10 @@ def look_up(frame: EpipolarFrame, tables: EpipolarTables, directions, distances)
     lit_length = interp(tables.lit_length).reshape(shape)
     first_lit = interp(tables.first_lit).reshape(shape)
     integrated = None if tables.integrated is None else interp(tables.integrated).reshape(shape + (3,))
-    return np.minimum(lit_length, distances), np.minimum(first_lit, distances), integrated
+    # Beyond the grid (surfaces that cast no shadow, past the farthest caster) the air is lit,
+    # as it is outside every cascade for brute force.
+    beyond = np.maximum(np.asarray(distances) - frame.t_max, 0.0)
+    return np.minimum(lit_length, distances) + beyond, np.minimum(first_lit, distances), integrated
 
 
 def light_shafts(luts, camera: Camera, end, frame: EpipolarFrame, tables: EpipolarTables,

@@ -78,7 +78,9 @@ def look_up(g, gin, direction, length, sun, layout, lit_image, integral_image):
         return g.vlerp(rows[0], rows[1], w)
 
     lit_length, first_lit, _ = g.separate(fetch(lit_image))
-    lit_length = g.math("MINIMUM", lit_length, length)
+    # Beyond the grid (past the farthest shadow caster) the air is lit, as outside every cascade.
+    beyond = g.math("MAXIMUM", g.sub(length, t_max), 0.0)
+    lit_length = g.add(g.math("MINIMUM", lit_length, length), beyond)
     first_lit = g.math("MINIMUM", first_lit, length)
     integrated = fetch(integral_image) if integral_image is not None else None
     return lit_length, first_lit, integrated
