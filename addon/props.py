@@ -106,12 +106,12 @@ _LIVE_NOW = {
     "initial_sample_step",
     "epipole_sampling_density",
     "refinement_threshold",
+    "show_sampling",
 }
 LATER_ISSUE = frozenset(name for names in PROPERTIES_BY_SET.values() for name in names) - _LIVE_NOW
 
 # Why each greyed control has no effect in this version's epipolar design (lut_gen.epipolar).
 LATER_NOTES = {
-    "show_sampling": "(not drawn yet)",
     "use_min_max_optimization": "(not built: each table ray is marched through the shadow maps)",
     "optimize_sample_locations": "(no effect: samples are spaced by angle from the sun, so short epipolar "
                                  "lines are not oversampled)",
@@ -281,8 +281,9 @@ class OLSSettings(bpy.types.PropertyGroup):
         name="Show Sampling",
         description=_d("show_sampling",
                        "Visualize the epipolar sampling structure: thick red dots are ray marching "
-                       "samples, thin red dots interpolation samples"),
+                       "samples, thin red dots interpolation samples (epipolar sampling only)"),
         default=False,
+        update=_sync_compositor,
     )
     use_min_max_optimization: BoolProperty(
         name="1D Min/Max Optimization",

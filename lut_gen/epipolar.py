@@ -346,3 +346,24 @@ def light_shafts(luts, camera: Camera, end, frame: EpipolarFrame, tables: Epipol
     camera_position = np.broadcast_to(camera.position, ray.shape)
     return aerial.apply_modes(luts, camera_position, np.asarray(end, dtype=np.float64), frame.sun, lit_length,
                               first_lit, integrated, single_mode, multiple_mode)
+
+
+def sampling_overlay(frame: EpipolarFrame, marched, camera: Camera, width: int, height: int) -> np.ndarray:
+    """(height, width) float32, rows bottom to top: 1 where Show Sampling paints red. Ray-marched
+    samples are thick dots (3 x 3 pixels), interpolated ones thin (1 pixel), at the screen
+    positions of the grid's nodes."""
+    directions = frame.node_directions()
+    local = directions @ np.asarray(camera.rotation, dtype=np.float64)            # (S+1, N, 3) camera axes
+    ahead = local[..., 2] < -1e-9
+    depth = np.where(ahead, -local[..., 2], 1.0)
+    tx, ty = camera.tan_half_fov
+    column = np.floor((local[..., 0] / depth / tx + 1.0) * 0.5 * width).astype(np.int64)
+    row = np.floor((local[..., 1] / depth / ty + 1.0) * 0.5 * height).astype(np.int64)
+    overlay = np.zeros((height, width), dtype=np.float32)
+    thick = np.asarray(marched, dtype=bool)
+    for offsets, which in ((((0, 0),), ~thick), ([(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)], thick)):
+        for dx, dy in offsets:
+            c, r = column + dx, row + dy
+            keep = ahead & which & (c >= 0) & (c < width) & (r >= 0) & (r < height)
+            overlay[r[keep], c[keep]] = 1.0
+    return overlay

@@ -56,6 +56,7 @@ class PassSettings:
     initial_sample_step: int = 16
     epipole_sampling_density: int = 2
     refinement_threshold: float = 0.03
+    show_sampling: bool = False
 
     def epipolar_settings(self):
         return epipolar.EpipolarSettings(
@@ -89,31 +90,44 @@ def scattering_pass(luts: Luts, image, position, depth, camera: Camera, sun_dire
     surface = image * transmittance * (0.0 if settings.lighting_only else 1.0)
     unshadowed = aerial.segment_inscattering(luts, camera.position, end, sun)
     out = np.where(geometry[..., None], surface + unshadowed * scale, image)
+    overlay = None
     if settings.enable_light_shafts and cascades is not None:
-        shafts = light_shafts(luts, camera, end, sun, cascades, settings, width, height)
+        shafts, overlay = light_shafts(luts, camera, end, sun, cascades, settings, width, height)
         out = out + (shafts - unshadowed) * scale
     if settings.show_cascades and cascades is not None:
         out = np.where(geometry[..., None], out * cascade_tint(cascades, end, camera, settings), out)
+    if overlay is not None:
+        out = np.where(overlay[..., None] > 0.5, sampling_red(out), out)
     return out
 
 
+def sampling_red(radiance):
+    """Show Sampling's red, bright enough to read as red through any exposure: four times the
+    pixel's largest channel (plus a floor for black pixels) in red, nothing in green and blue."""
+    red = 4.0 * np.max(radiance, axis=-1) + 1e-3
+    return np.stack([red, np.zeros_like(red), np.zeros_like(red)], axis=-1)
+
+
 def light_shafts(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades, settings: PassSettings,
-                 width: int, height: int) -> np.ndarray:
-    """Shadowed in-scattering per unit sun of every pixel, with the settings' technique."""
+                 width: int, height: int):
+    """(shadowed in-scattering per unit sun of every pixel with the settings' technique, Show
+    Sampling's overlay or None)."""
     if settings.scattering_technique == "EPIPOLAR_SAMPLING":
         wanted = settings.epipolar_settings()
         frame = epipolar.frame_for(camera, sun, width, height, float(cascades.far_depths[-1]), wanted)
         tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
                                        settings.best_cascade_search, settings.first_cascade_to_ray_march, luts,
                                        settings.single_scattering_mode == "INTEGRATION")
+        overlay = (epipolar.sampling_overlay(frame, tables.marched, camera, width, height)
+                   if settings.show_sampling else None)
         return epipolar.light_shafts(luts, camera, end, frame, tables, settings.single_scattering_mode,
-                                     settings.multiple_scattering_mode)
+                                     settings.multiple_scattering_mode), overlay
 
     def is_lit(points):
         return visibility(cascades, points, camera, settings.smooth_shadows,
                           settings.best_cascade_search, settings.first_cascade_to_ray_march)
     return aerial.light_shafts(luts, camera.position, end, sun, is_lit, settings.num_integration_steps,
-                               settings.single_scattering_mode, settings.multiple_scattering_mode)
+                               settings.single_scattering_mode, settings.multiple_scattering_mode), None
 
 
 def cascade_tint(cascades: ShadowCascades, points, camera: Camera, settings: PassSettings):

@@ -188,3 +188,20 @@ def test_bad_settings_are_refused_with_a_message():
         epipolar.EpipolarSettings(slices=0).checked()
     with pytest.raises(ValueError, match="refinement threshold"):
         epipolar.EpipolarSettings(refinement_threshold=float("nan")).checked()
+
+
+def test_each_epipolar_control_changes_the_picture(draft_luts):
+    """Slices, samples, initial step, epipole density and refinement threshold each change the
+    picture (a little); Show Sampling paints red dots."""
+    scene = Scene(fence(), CAMERA, sun_at(6.0, 5.0), 96, 54)
+    base = dict(scattering_technique="EPIPOLAR_SAMPLING", num_integration_steps=16, epipolar_slices=128,
+                samples_per_slice=64, initial_sample_step=16, epipole_sampling_density=2, refinement_threshold=0.5)
+    reference = scene.shafts(draft_luts, **base)
+    for name, value in (("epipolar_slices", 64), ("samples_per_slice", 128), ("initial_sample_step", 4),
+                        ("epipole_sampling_density", 8), ("refinement_threshold", 0.01)):
+        changed = scene.shafts(draft_luts, **{**base, name: value})
+        assert np.abs(changed - reference).max() > 1e-7, name
+    dotted = scene.shafts(draft_luts, **base, show_sampling=True)
+    red = (dotted[..., 1:].max(axis=-1) == 0.0) & (dotted[..., 0] > reference.max(axis=-1))
+    assert 0.01 < red.mean() < 0.9
+    assert np.array_equal(dotted[~red], reference[~red])

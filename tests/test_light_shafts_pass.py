@@ -237,3 +237,23 @@ def test_bad_scenes_render_without_nan_and_say_why(addon_package, tmp_path, monk
         render_passes(addon_package, scene, tmp_path)
     assert bpy.ops.ols.render(filepath=str(tmp_path / "fixed.png")) == {"FINISHED"}
     assert scene.view_layers[0].use_pass_position
+
+
+def test_show_sampling_draws_the_epipolar_samples(addon_package, tmp_path, monkeypatch):
+    """Thick red dots on the ray-marched samples, thin ones on the interpolated, as the twin draws
+    them; off again, the picture is the plain pass."""
+    scene = low_sun_scene(addon_package, tmp_path, monkeypatch, steps=8)
+    scene.ols.epipolar_slices, scene.ols.samples_per_slice = 64, 32
+    passes = render_passes(addon_package, scene, tmp_path)
+    plain = render_rgb(scene, tmp_path / "plain.exr", composite=True)[::-1]
+    scene.ols.show_sampling = True
+    dotted = render_rgb(scene, tmp_path / "dotted.exr", composite=True)[::-1]
+    expected = Twin(addon_package, scene, passes)()
+    red = (dotted[..., 0] > 2.0 * np.maximum(plain.max(axis=-1), 1e-4)) & (dotted[..., 1:].max(axis=-1) == 0.0)
+    twin_red = (expected[..., 1:].max(axis=-1) == 0.0) & (expected[..., 0] > 0.0)
+    assert 0.02 < red.mean() < 0.9
+    assert (red == twin_red).mean() > 0.99
+    save_png(tmp_path / "sampling.png", dotted[::-1], 1.0)
+    scene.ols.show_sampling = False
+    again = render_rgb(scene, tmp_path / "again.exr", composite=True)[::-1]
+    np.testing.assert_allclose(again, plain, rtol=1e-5, atol=1e-7)

@@ -18,13 +18,23 @@ from ...lut_gen import epipolar
 
 LIT_IMAGE = "OLS Epipolar Lit"
 INTEGRAL_IMAGE = "OLS Epipolar Integral"
+SAMPLING_IMAGE = "OLS Epipolar Sampling"    # Show Sampling's dots at the render's size (1 x 1 when off)
 INPUTS = [
     ("Epipolar Axis 1", "NodeSocketVector", (1.0, 0.0, 0.0)),
     ("Epipolar Axis 2", "NodeSocketVector", (0.0, 1.0, 0.0)),
     ("Epipolar Phi", "NodeSocketVector", (0.0, 1.0, 0.0)),
     ("Epipolar Theta", "NodeSocketVector", (0.0, 1.0, 0.0)),
     ("Epipolar Depth", "NodeSocketVector", (1.0, 1.0, 0.0)),
+    ("Show Sampling", "NodeSocketFloat", 0.0),
 ]
+
+
+def show_sampling(g, gin, result, pixel_uv, sampling_image):
+    """Red dots where Show Sampling's overlay is set (twin: scattering_pass.sampling_red)."""
+    dots = g.separate(g.image(sampling_image, pixel_uv, interpolation="Closest"))[0]
+    r, gr, b = g.separate(result)
+    red = g.mul_add(g.math("MAXIMUM", r, g.math("MAXIMUM", gr, b)), 4.0, 1e-3)
+    return g.vlerp(result, g.combine(red, 0.0, 0.0), g.mul(dots, gin.outputs["Show Sampling"]))
 
 
 def pack(tables: epipolar.EpipolarTables):

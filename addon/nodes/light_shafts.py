@@ -199,9 +199,9 @@ MAIN_INPUTS = PASS_INPUTS + [
 
 
 def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params, layout: ShaftLayout,
-                             epipolar_images=(None, None)):
+                             epipolar_images=(None, None, None)):
     """(Re)build "OLS Light Shafts" and its sub-groups for ``layout``; the epipolar technique
-    reads ``epipolar_images`` (lit, integral or None) instead of marching."""
+    reads ``epipolar_images`` (lit, integral or None, sampling overlay) instead of marching."""
     shadow_test_tree = build_shadow_test_group(layout, atlas_image, parameter_image)
     integration = build_integration_group(optical_image, params)
     tree = new_group(GROUP_NAME, "CompositorNodeTree")
@@ -236,7 +236,8 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
         return node
 
     if layout.epipolar:
-        lit_length, first_lit, integrated = epipolar.look_up(g, gin, direction, length, sun, layout, *epipolar_images)
+        lit_length, first_lit, integrated = epipolar.look_up(g, gin, direction, length, sun, layout,
+                                                             *epipolar_images[:2])
     else:
         lit_length, first_lit, integrated = _march(g, gin, camera, direction, length, sun, layout, shadow_test,
                                                    integration)
@@ -278,6 +279,8 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     colour = g.image(parameter_image, g.combine(colour_u, colour_v, 1.0), interpolation="Closest")
     tint = g.vlerp((1.0, 1.0, 1.0), colour, g.mul(gin.outputs["Show Cascades"], geometry))
     result = g.vmath("MULTIPLY", result, tint)
+    if layout.epipolar:
+        result = epipolar.show_sampling(g, gin, result, g.combine(nx, ny, 1.0), epipolar_images[2])
 
     g.links.new(g.with_alpha_of(gin.outputs["Image"], result), gout.inputs["Image"])
     return tree

@@ -213,6 +213,8 @@ def sync_settings(scene):
                              "Scattering Scale": settings.scattering_scale,
                              "First Cascade": float(settings.first_cascade_to_ray_march),
                              "Show Cascades": float(settings.show_cascades)})
+        if "Show Sampling" in shafts.inputs:
+            _set_inputs(shafts, {"Show Sampling": float(settings.show_sampling)})
 
 
 def _set_inputs(node, values: dict):

@@ -11,6 +11,7 @@ from . import luts
 
 LIT_IMAGE = nodes.epipolar.LIT_IMAGE
 INTEGRAL_IMAGE = nodes.epipolar.INTEGRAL_IMAGE
+SAMPLING_IMAGE = nodes.epipolar.SAMPLING_IMAGE
 
 
 def table_texels(settings) -> int:
@@ -46,14 +47,18 @@ def settings_for(settings) -> epipolar.EpipolarSettings:
 def ensure_images(layout):
     """(lit image, integral image or None) at the layout's size; (None, None) for brute force."""
     if not layout.epipolar:
-        return None, None
+        return None, None, None
     width, height = nodes.epipolar.image_size(layout.slices, layout.samples, layout.steps)
     images = []
-    for name, wanted in ((LIT_IMAGE, True), (INTEGRAL_IMAGE, layout.single_mode == "INTEGRATION")):
+    for name, wanted in ((LIT_IMAGE, True), (INTEGRAL_IMAGE, layout.single_mode == "INTEGRATION"),
+                         (SAMPLING_IMAGE, True)):
         if not wanted:
             images.append(None)
             continue
         image = bpy.data.images.get(name)
+        if name == SAMPLING_IMAGE:
+            images.append(image or luts.write_data_image(name, np.zeros((1, 1, 4), dtype=np.float32)))
+            continue
         if image is not None and tuple(image.size) != (width, height):
             # Image.scale leaves a large float image's pixel count stale (measured in bpy 5.0.1):
             # make a new one; the groups are rebuilt on it right after.
@@ -69,7 +74,10 @@ def images_intact(layout) -> bool:
     if not layout.epipolar:
         return True
     width, height = nodes.epipolar.image_size(layout.slices, layout.samples, layout.steps)
-    names = [LIT_IMAGE] + ([INTEGRAL_IMAGE] if layout.single_mode == "INTEGRATION" else [])
+    names = [LIT_IMAGE, SAMPLING_IMAGE] + ([INTEGRAL_IMAGE] if layout.single_mode == "INTEGRATION" else [])
+    if any(bpy.data.images.get(n) is None for n in names):
+        return False
+    names.remove(SAMPLING_IMAGE)                # any size: written at the render's each frame
     return all(bpy.data.images.get(n) is not None and tuple(bpy.data.images[n].size) == (width, height) for n in names)
 
 
@@ -87,7 +95,30 @@ def update(scene, camera, sun_direction, cascades, luts_object=None) -> dict:
                                    settings.best_cascade_search, settings.first_cascade_to_ray_march,
                                    luts_object, integrate)
     lit, integral = nodes.epipolar.pack(tables)
-    luts.write_data_image(LIT_IMAGE, lit)
+    write_image(LIT_IMAGE, lit)
     if integral is not None:
-        luts.write_data_image(INTEGRAL_IMAGE, integral)
+        write_image(INTEGRAL_IMAGE, integral)
+    overlay = np.zeros((1, 1, 4), dtype=np.float32)
+    if settings.show_sampling:
+        dots = epipolar.sampling_overlay(frame, tables.marched, camera, width, height)
+        overlay = np.zeros((height, width, 4), dtype=np.float32)
+        overlay[..., 0] = dots
+    write_image(SAMPLING_IMAGE, overlay)
     return frame.as_values()
+
+
+def write_image(name, pixels):
+    """luts.write_data_image, but an image of another size is made anew (Image.scale left a
+    table image's pixel count stale in a render, bpy 5.0.1) and the light-shaft group's image
+    nodes are pointed at the new one."""
+    image = bpy.data.images.get(name)
+    height, width = pixels.shape[:2]
+    if image is not None and tuple(image.size) != (width, height):
+        bpy.data.images.remove(image)
+        image = luts.write_data_image(name, pixels)
+        group = bpy.data.node_groups.get(nodes.LIGHT_SHAFTS_GROUP)
+        for node in (group.nodes if group is not None else ()):
+            if node.bl_idname == "CompositorNodeImage" and node.image is None:
+                node.image = image
+        return image
+    return luts.write_data_image(name, pixels)

@@ -61,7 +61,8 @@ def _frame_key(scene, depsgraph):
             settings.enable_light_shafts, settings.enable_light_scattering,
             scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage,
             epipolar_tables.technique(settings), epipolar_tables.settings_for(settings), settings.single_scattering_mode,
-            settings.smooth_shadows, settings.best_cascade_search, settings.first_cascade_to_ray_march)
+            settings.smooth_shadows, settings.best_cascade_search, settings.first_cascade_to_ray_march,
+            settings.show_sampling)
 
 
 def _numpy_luts(scene):
