@@ -107,12 +107,12 @@ _LIVE_NOW = {
     "epipole_sampling_density",
     "refinement_threshold",
     "show_sampling",
+    "use_min_max_optimization",
 }
 LATER_ISSUE = frozenset(name for names in PROPERTIES_BY_SET.values() for name in names) - _LIVE_NOW
 
 # Why each greyed control has no effect in this version's epipolar design (lut_gen.epipolar).
 LATER_NOTES = {
-    "use_min_max_optimization": "(not built: each table ray is marched through the shadow maps)",
     "optimize_sample_locations": "(no effect: samples are spaced by angle from the sun, so short epipolar "
                                  "lines are not oversampled)",
     "correct_depth_breaks": "(not needed: each pixel reads the epipolar tables at its own depth, so no pixel "
@@ -288,8 +288,10 @@ class OLSSettings(bpy.types.PropertyGroup):
     use_min_max_optimization: BoolProperty(
         name="1D Min/Max Optimization",
         description=_d("use_min_max_optimization",
-                       "Use 1D min/max binary trees to accelerate ray marching"),
+                       "Skip the shadow-map taps of ray-march points that min/max mipmaps of the cascades show "
+                       "surely lit or surely shadowed (epipolar sampling; speed only, the same picture)"),
         default=True,
+        update=_sync_compositor,
     )
     optimize_sample_locations: BoolProperty(
         name="Optimize Sample Locations",

@@ -18,7 +18,7 @@ ENABLED_BY = {
     "ozone_column": lambda settings: settings.atmosphere_preset == "CLEAR_SKY",
     **{name: (lambda settings: settings.scattering_technique == "EPIPOLAR_SAMPLING")
        for name in ("epipolar_slices", "samples_per_slice", "initial_sample_step", "epipole_sampling_density",
-                    "refinement_threshold", "show_sampling")},
+                    "refinement_threshold", "show_sampling", "use_min_max_optimization")},
 }
 
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import aerial
+from . import aerial, min_max
 from .shadow_map import Camera, ShadowCascades, visibility
 
 MIN_NEAR = 10.0                 # m: the distance grid is geometric from here (1 m: 4 dB worse on the sample)
@@ -205,15 +205,18 @@ def initial_samples(samples: int, step: int, density: int) -> np.ndarray:
 
 
 def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Camera, smooth: bool,
-          best_search: bool, first_cascade: int, luts=None, integrate: bool = False):
+          best_search: bool, first_cascade: int, luts=None, integrate: bool = False, maps=None):
     """(lit length, first lit, integrated or None) at the frame's distances for rays
     ``directions`` (n, 3): one shadow test per distance interval at its centre, as the brute
-    force march does per step."""
+    force march does per step. ``maps`` (lut_gen.min_max) skip the taps of decided points."""
     t = frame.distances()
     centres = 0.5 * (t[1:] + t[:-1])
     lengths = np.diff(t)
     points = camera.position + directions[:, None, :] * centres[None, :, None]         # (n, K-1, 3)
-    lit = visibility(cascades, points, camera, smooth, best_search, first_cascade)
+    if maps is not None:
+        lit = min_max.visibility(cascades, maps, points, camera, best_search, first_cascade)
+    else:
+        lit = visibility(cascades, points, camera, smooth, best_search, first_cascade)
     zero = np.zeros((len(directions), 1))
     lit_length = np.concatenate([zero, np.cumsum(lit * lengths, axis=-1)], axis=-1)
     # F(t): the start of the first interval with light among those before t, else t itself.
@@ -244,6 +247,7 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
     first_lit = np.zeros((n_slices, n_samples, K))
     integrated = np.zeros((n_slices, n_samples, K, 3)) if integrate else None
     marched = np.zeros((n_slices, n_samples), dtype=bool)
+    maps = min_max.build(cascades, smooth) if settings.use_min_max else None
 
     def run(mask):
         idx = np.nonzero(mask & ~marched)
@@ -252,7 +256,8 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
         chunk = max(1, (1 << 21) // K)
         for start in range(0, len(idx[0]), chunk):
             sel = (idx[0][start:start + chunk], idx[1][start:start + chunk])
-            L, F, S = march(frame, nodes[sel], cascades, camera, smooth, best_search, first_cascade, luts, integrate)
+            L, F, S = march(frame, nodes[sel], cascades, camera, smooth, best_search, first_cascade, luts, integrate,
+                            maps)
             lit_length[sel], first_lit[sel] = L, F
             if integrate:
                 integrated[sel] = S

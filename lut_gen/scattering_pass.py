@@ -57,12 +57,13 @@ class PassSettings:
     epipole_sampling_density: int = 2
     refinement_threshold: float = 0.03
     show_sampling: bool = False
+    use_min_max_optimization: bool = True
 
     def epipolar_settings(self):
         return epipolar.EpipolarSettings(
             slices=self.epipolar_slices, samples=self.samples_per_slice, steps=self.num_integration_steps,
             initial_sample_step=self.initial_sample_step, epipole_sampling_density=self.epipole_sampling_density,
-            refinement_threshold=self.refinement_threshold)
+            refinement_threshold=self.refinement_threshold, use_min_max=self.use_min_max_optimization)
 
 
 def march_ends(camera: Camera, directions, position, depth, far: float):

@@ -98,7 +98,8 @@ def test_every_control_is_a_property(addon_package):
         "shadow_map_resolution", "num_integration_steps", "single_scattering_mode", "multiple_scattering_mode",
         "num_cascades", "show_cascades", "smooth_shadows", "best_cascade_search", "cascade_partitioning_factor",
         "first_cascade_to_ray_march", "scattering_technique", "epipolar_slices", "samples_per_slice",
-        "initial_sample_step", "epipole_sampling_density", "refinement_threshold", "show_sampling"}
+        "initial_sample_step", "epipole_sampling_density", "refinement_threshold", "show_sampling",
+        "use_min_max_optimization"}
     notes = set(props.LATER_NOTES.values()) | {props.LATER_NOTE}
     for name in names:
         description = rna[name].description

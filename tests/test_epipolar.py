@@ -205,3 +205,25 @@ def test_each_epipolar_control_changes_the_picture(draft_luts):
     red = (dotted[..., 1:].max(axis=-1) == 0.0) & (dotted[..., 0] > reference.max(axis=-1))
     assert 0.01 < red.mean() < 0.9
     assert np.array_equal(dotted[~red], reference[~red])
+
+
+@pytest.mark.parametrize("smooth", [True, False])
+def test_min_max_maps_give_the_same_shadow_test(smooth):
+    """lut_gen.min_max skips decided points' taps; its answer is shadow_map.visibility's."""
+    from lut_gen import min_max
+    scene = Scene(pillars() + fence(), CAMERA, sun_at(7.0, 10.0), 32, 18, resolution=256)
+    rng = np.random.default_rng(4)
+    points = rng.uniform([-400.0, 0.0, 0.0], [400.0, 600.0, 150.0], (20_000, 3))
+    want = shadow_map.visibility(scene.cascades, points, scene.camera, smooth, True, 1)
+    got = min_max.visibility(scene.cascades, min_max.build(scene.cascades, smooth), points, scene.camera, True, 1)
+    assert 0.05 < want.mean() < 0.95
+    np.testing.assert_array_equal(got, want)
+
+
+def test_min_max_optimization_changes_speed_not_the_picture(draft_luts):
+    scene = Scene(fence(), CAMERA, sun_at(6.0, 5.0), 96, 54)
+    settings = dict(scattering_technique="EPIPOLAR_SAMPLING", num_integration_steps=16, epipolar_slices=128,
+                    samples_per_slice=64)
+    on = scene.shafts(draft_luts, use_min_max_optimization=True, **settings)
+    off = scene.shafts(draft_luts, use_min_max_optimization=False, **settings)
+    np.testing.assert_allclose(on, off, rtol=0, atol=1e-6)
