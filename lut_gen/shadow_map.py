@@ -128,10 +128,10 @@ def rasterize_max_depth(triangles_light: np.ndarray, center, half, resolution: i
     vertex) over each texel centre of the rectangle center +- half; EMPTY_DEPTH where none."""
     if resolution < 1:
         raise ValueError(f"the shadow map resolution must be at least 1 texel, got {resolution}")
-    depth = np.full(resolution * resolution, EMPTY_DEPTH, dtype=np.float64)
+    depth = np.full(resolution * resolution, EMPTY_DEPTH, dtype=np.float32)
     tri = np.asarray(triangles_light, dtype=np.float64)
     if tri.size == 0:
-        return depth.reshape(resolution, resolution).astype(np.float32)
+        return depth.reshape(resolution, resolution)
     texel = 2.0 * np.asarray(half, dtype=np.float64) / resolution
     origin = np.asarray(center, dtype=np.float64) - half
     px = (tri[..., 0] - origin[0]) / texel[0] - 0.5      # texel centres at integer coordinates
@@ -143,41 +143,69 @@ def rasterize_max_depth(triangles_light: np.ndarray, center, half, resolution: i
     area = ((px[:, 1] - px[:, 0]) * (py[:, 2] - py[:, 0]) - (px[:, 2] - px[:, 0]) * (py[:, 1] - py[:, 0]))
     keep = (hi_x >= lo_x) & (hi_y >= lo_y) & (np.abs(area) > 1e-12)
     if not keep.any():
-        return depth.reshape(resolution, resolution).astype(np.float32)
+        return depth.reshape(resolution, resolution)
     px, py, d, area = px[keep], py[keep], tri[keep][..., 2], area[keep]
     lo_x, hi_x, lo_y, hi_y = lo_x[keep], hi_x[keep], lo_y[keep], hi_y[keep]
+    planes = _barycentric_planes(px - lo_x[:, None], py - lo_y[:, None], area)
+    # Depth as a plane over the candidate grid, relative to the first vertex (float32 keeps
+    # millimetres at the sample's kilometres).
+    d0 = d[:, 0]
+    depth_plane = planes[:, 1] * (d[:, 1] - d0)[:, None] + planes[:, 2] * (d[:, 2] - d0)[:, None]
     width, height = hi_x - lo_x + 1, hi_y - lo_y + 1
-    # Batches of triangles with bounding boxes of similar size (power-of-two classes), so the
-    # candidate grid of a batch wastes at most half of each axis.
-    size_class = np.stack([np.ceil(np.log2(width)), np.ceil(np.log2(height))], axis=-1).astype(np.int64)
-    classes, which = np.unique(size_class, axis=0, return_inverse=True)
-    for index, (cx, cy) in enumerate(classes):
-        members = np.flatnonzero(which.ravel() == index)
-        grid_w, grid_h = 1 << int(cx), 1 << int(cy)
-        per_batch = max(MAX_CANDIDATES // (grid_w * grid_h), 1)
-        for start in range(0, len(members), per_batch):
-            batch = members[start:start + per_batch]
-            _splat(depth, resolution, px[batch], py[batch], d[batch], area[batch],
-                   lo_x[batch], lo_y[batch], width[batch], height[batch], grid_w, grid_h)
-    return depth.reshape(resolution, resolution).astype(np.float32)
+    # Batches of triangles whose bounding boxes round up to the same grid (sizes in steps of at
+    # most 1.5x), so a batch's candidate grid wastes little of each axis.
+    grid_w, grid_h = _round_up_size(width), _round_up_size(height)
+    order = np.lexsort((grid_h, grid_w))
+    keys = grid_w[order] * (resolution + 1) + grid_h[order]
+    starts = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]])
+    ends = np.r_[starts[1:], len(order)]
+    for start, end in zip(starts, ends):
+        members = order[start:end]
+        gw, gh = int(grid_w[members[0]]), int(grid_h[members[0]])
+        per_batch = max(MAX_CANDIDATES // (gw * gh), 1)
+        for first in range(0, len(members), per_batch):
+            batch = members[first:first + per_batch]
+            _splat(depth, resolution, planes[batch], depth_plane[batch], d0[batch], lo_x[batch], lo_y[batch],
+                   width[batch], height[batch], gw, gh)
+    return depth.reshape(resolution, resolution)
 
 
-def _splat(depth, resolution, px, py, d, area, lo_x, lo_y, width, height, grid_w, grid_h):
+SIZE_STEPS = np.array(sorted({int(round(b * m)) for b in (1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096)
+                              for m in (1.0, 1.5)}))
+
+
+def _round_up_size(n):
+    """The smallest SIZE_STEPS entry >= n (bounding boxes are at most the resolution, <= 4096)."""
+    return SIZE_STEPS[np.searchsorted(SIZE_STEPS, n)]
+
+
+def _barycentric_planes(px, py, area):
+    """(M, 3, 3): per triangle and vertex, (a, b, c) with barycentric weight a x + b y + c at
+    grid offset (x, y) from the triangle's box corner."""
+    planes = np.empty((len(px), 3, 3))
+    for vertex, (i, j) in enumerate(((1, 2), (2, 0), (0, 1))):
+        # Twice the signed area of (i, j, point), over twice the triangle's.
+        planes[:, vertex, 0] = -(py[:, j] - py[:, i]) / area
+        planes[:, vertex, 1] = (px[:, j] - px[:, i]) / area
+        planes[:, vertex, 2] = ((py[:, j] - py[:, i]) * px[:, i] - (px[:, j] - px[:, i]) * py[:, i]) / area
+    return planes
+
+
+def _splat(depth, resolution, planes, depth_plane, d0, lo_x, lo_y, width, height, grid_w, grid_h):
     """Max-scatter the sun depth of a batch of triangles over the texel centres they cover."""
-    ox, oy = np.meshgrid(np.arange(grid_w), np.arange(grid_h), indexing="xy")
+    ox, oy = np.meshgrid(np.arange(grid_w, dtype=np.float32), np.arange(grid_h, dtype=np.float32), indexing="xy")
     ox, oy = ox.ravel()[None], oy.ravel()[None]
-    tx, ty = lo_x[:, None] + ox, lo_y[:, None] + oy
-    in_box = (ox < width[:, None]) & (oy < height[:, None])
-
-    def edge(i, j):        # twice the signed area of (vertex i, vertex j, texel)
-        return ((px[:, j, None] - px[:, i, None]) * (ty - py[:, i, None])
-                - (py[:, j, None] - py[:, i, None]) * (tx - px[:, i, None]))
-    w0, w1, w2 = edge(1, 2) / area[:, None], edge(2, 0) / area[:, None], edge(0, 1) / area[:, None]
-    eps = -1e-7
-    inside = in_box & (w0 >= eps) & (w1 >= eps) & (w2 >= eps)
-    value = w0 * d[:, 0, None] + w1 * d[:, 1, None] + w2 * d[:, 2, None]
-    flat = (ty * resolution + tx)[inside]
-    np.maximum.at(depth, flat, value[inside])
+    p = planes.astype(np.float32)
+    eps = np.float32(-1e-6)
+    inside = (ox < width[:, None]) & (oy < height[:, None])
+    for vertex in range(3):
+        inside &= p[:, vertex, 0, None] * ox + p[:, vertex, 1, None] * oy + p[:, vertex, 2, None] >= eps
+    rows, cols = np.nonzero(inside)
+    x, y = ox[0, cols], oy[0, cols]
+    dp = depth_plane.astype(np.float32)
+    value = d0[rows].astype(np.float32) + dp[rows, 0] * x + dp[rows, 1] * y + dp[rows, 2]
+    flat = (lo_y[rows] + y.astype(np.int64)) * resolution + lo_x[rows] + x.astype(np.int64)
+    np.maximum.at(depth, flat, value)
 
 
 def render_cascades(triangles_world, camera: Camera, sun_direction, resolution: int, count: int,
@@ -189,14 +217,16 @@ def render_cascades(triangles_world, camera: Camera, sun_direction, resolution: 
     splits = cascade_splits(near, far, count, partitioning_factor)
     centers, halves = cascade_footprints(camera, frame, splits, resolution)
     triangles_light = np.asarray(triangles_world, dtype=np.float64).reshape(-1, 3, 3) @ frame.T
-    depths = np.stack([rasterize_max_depth(_overlapping(triangles_light, c, h), c, h, resolution)
+    xy = triangles_light[..., :2]
+    low = np.minimum(np.minimum(xy[:, 0], xy[:, 1]), xy[:, 2])       # light-space boxes, once
+    high = np.maximum(np.maximum(xy[:, 0], xy[:, 1]), xy[:, 2])
+    depths = np.stack([rasterize_max_depth(_overlapping(triangles_light, low, high, c, h), c, h, resolution)
                        for c, h in zip(centers, halves)])
     return ShadowCascades(frame, centers, halves, splits[1:], depths)
 
 
-def _overlapping(triangles_light, center, half):
-    """The triangles whose light-space bounding box meets the rectangle center +- half."""
-    low, high = triangles_light[..., :2].min(axis=1), triangles_light[..., :2].max(axis=1)
+def _overlapping(triangles_light, low, high, center, half):
+    """The triangles whose light-space bounding box (low, high) meets the rectangle center +- half."""
     keep = np.all((high >= center - half) & (low <= center + half), axis=-1)
     return triangles_light[keep]
 
