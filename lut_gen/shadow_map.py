@@ -22,7 +22,7 @@ import numpy as np
 EMPTY_DEPTH = -1.0e9            # sun depth of texels no geometry covers: everything is lit there
 BIAS_TEXELS = 2.0               # depth bias, in texel sizes, against self-shadowing of surfaces
 PAD_TEXELS = 2.0                # margin around each cascade's footprint, so PCF taps stay inside
-MAX_CANDIDATES = 1 << 22        # texel tests per rasterisation batch (memory bound)
+MAX_CANDIDATES = 1 << 22        # bounds the rows (x 8) per scanline batch (memory)
 CASCADE_COLORS = np.array([(1.0, 0.3, 0.3), (0.3, 1.0, 0.3), (0.3, 0.3, 1.0), (1.0, 1.0, 0.3),
                            (1.0, 0.3, 1.0), (0.3, 1.0, 1.0), (1.0, 0.65, 0.2), (0.7, 0.7, 0.7)])
 
@@ -147,36 +147,53 @@ def rasterize_max_depth(triangles_light: np.ndarray, center, half, resolution: i
     px, py, d, area = px[keep], py[keep], tri[keep][..., 2], area[keep]
     lo_x, hi_x, lo_y, hi_y = lo_x[keep], hi_x[keep], lo_y[keep], hi_y[keep]
     planes = _barycentric_planes(px - lo_x[:, None], py - lo_y[:, None], area)
-    # Depth as a plane over the candidate grid, relative to the first vertex (float32 keeps
-    # millimetres at the sample's kilometres).
     d0 = d[:, 0]
     depth_plane = planes[:, 1] * (d[:, 1] - d0)[:, None] + planes[:, 2] * (d[:, 2] - d0)[:, None]
-    width, height = hi_x - lo_x + 1, hi_y - lo_y + 1
-    # Batches of triangles whose bounding boxes round up to the same grid (sizes in steps of at
-    # most 1.5x), so a batch's candidate grid wastes little of each axis.
-    grid_w, grid_h = _round_up_size(width), _round_up_size(height)
-    order = np.lexsort((grid_h, grid_w))
-    keys = grid_w[order] * (resolution + 1) + grid_h[order]
-    starts = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]])
-    ends = np.r_[starts[1:], len(order)]
-    for start, end in zip(starts, ends):
-        members = order[start:end]
-        gw, gh = int(grid_w[members[0]]), int(grid_h[members[0]])
-        per_batch = max(MAX_CANDIDATES // (gw * gh), 1)
-        for first in range(0, len(members), per_batch):
-            batch = members[first:first + per_batch]
-            _splat(depth, resolution, planes[batch], depth_plane[batch], d0[batch], lo_x[batch], lo_y[batch],
-                   width[batch], height[batch], gw, gh)
+    height = hi_y - lo_y + 1
+    width = hi_x - lo_x + 1
+    # Scanline: per triangle and row of its box, the texel span inside all three edges, so only
+    # covered texels are visited (chunks of rows bound the memory).
+    row_start = np.concatenate([[0], np.cumsum(height)])
+    first = 0
+    while first < len(height):
+        last = int(np.searchsorted(row_start, row_start[first] + MAX_CANDIDATES // 8, side="right")) - 1
+        last = max(last, first + 1)
+        _scan(depth, resolution, planes[first:last], depth_plane[first:last], d0[first:last], lo_x[first:last],
+              lo_y[first:last], width[first:last], height[first:last])
+        first = last
     return depth.reshape(resolution, resolution)
 
 
-SIZE_STEPS = np.array(sorted({int(round(b * m)) for b in (1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096)
-                              for m in (1.0, 1.5)}))
-
-
-def _round_up_size(n):
-    """The smallest SIZE_STEPS entry >= n (bounding boxes are at most the resolution, <= 4096)."""
-    return SIZE_STEPS[np.searchsorted(SIZE_STEPS, n)]
+def _scan(depth, resolution, planes, depth_plane, d0, lo_x, lo_y, width, height):
+    """Max-scatter the sun depth of triangles over the texel centres they cover, row by row."""
+    count = len(height)
+    tri = np.repeat(np.arange(count), height)
+    oy = (np.arange(len(tri)) - np.repeat(np.cumsum(height) - height, height)).astype(np.float64)
+    lower = np.zeros(len(tri))
+    upper = (width - 1).astype(np.float64)[tri]
+    eps = -1e-7
+    for vertex in range(3):
+        a, b, c = (planes[tri, vertex, k] for k in range(3))
+        rest = eps - b * oy - c                     # a x >= rest
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = rest / a
+        lower = np.where(a > 0, np.maximum(lower, bound), lower)
+        upper = np.where(a < 0, np.minimum(upper, bound), upper)
+        upper = np.where((a == 0) & (rest > 0), -1.0, upper)
+    x_lo = np.ceil(lower - 1e-9).astype(np.int64)
+    x_hi = np.floor(upper + 1e-9).astype(np.int64)
+    span = np.maximum(x_hi - x_lo + 1, 0)
+    keep = span > 0
+    tri, oy, x_lo, span = tri[keep], oy[keep], x_lo[keep], span[keep]
+    if len(span) == 0:
+        return
+    which = np.repeat(np.arange(len(span)), span)
+    ox = x_lo[which] + (np.arange(len(which)) - np.repeat(np.cumsum(span) - span, span))
+    t = tri[which]
+    y = oy[which]
+    value = (d0[t] + depth_plane[t, 0] * ox + depth_plane[t, 1] * y + depth_plane[t, 2]).astype(np.float32)
+    flat = (lo_y[t] + y.astype(np.int64)) * resolution + lo_x[t] + ox
+    np.maximum.at(depth, flat, value)
 
 
 def _barycentric_planes(px, py, area):
@@ -189,23 +206,6 @@ def _barycentric_planes(px, py, area):
         planes[:, vertex, 1] = (px[:, j] - px[:, i]) / area
         planes[:, vertex, 2] = ((py[:, j] - py[:, i]) * px[:, i] - (px[:, j] - px[:, i]) * py[:, i]) / area
     return planes
-
-
-def _splat(depth, resolution, planes, depth_plane, d0, lo_x, lo_y, width, height, grid_w, grid_h):
-    """Max-scatter the sun depth of a batch of triangles over the texel centres they cover."""
-    ox, oy = np.meshgrid(np.arange(grid_w, dtype=np.float32), np.arange(grid_h, dtype=np.float32), indexing="xy")
-    ox, oy = ox.ravel()[None], oy.ravel()[None]
-    p = planes.astype(np.float32)
-    eps = np.float32(-1e-6)
-    inside = (ox < width[:, None]) & (oy < height[:, None])
-    for vertex in range(3):
-        inside &= p[:, vertex, 0, None] * ox + p[:, vertex, 1, None] * oy + p[:, vertex, 2, None] >= eps
-    rows, cols = np.nonzero(inside)
-    x, y = ox[0, cols], oy[0, cols]
-    dp = depth_plane.astype(np.float32)
-    value = d0[rows].astype(np.float32) + dp[rows, 0] * x + dp[rows, 1] * y + dp[rows, 2]
-    flat = (lo_y[rows] + y.astype(np.int64)) * resolution + lo_x[rows] + x.astype(np.int64)
-    np.maximum.at(depth, flat, value)
 
 
 def render_cascades(triangles_world, camera: Camera, sun_direction, resolution: int, count: int,

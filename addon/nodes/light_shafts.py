@@ -47,6 +47,7 @@ class ShaftLayout:
     technique: str = "BRUTE_FORCE"
     slices: int = 0                 # epipolar table size (0 for brute force)
     samples: int = 0
+    show_cascades: bool = False     # the tint costs a shadow test per pixel: built only when shown
 
     @property
     def epipolar(self) -> bool:
@@ -61,7 +62,8 @@ class ShaftLayout:
         return cls(settings.num_integration_steps, settings.num_cascades, settings.single_scattering_mode,
                    settings.multiple_scattering_mode, settings.smooth_shadows, settings.best_cascade_search,
                    int(settings.shadow_map_resolution), technique,
-                   settings.epipolar_slices if epipolar else 0, settings.samples_per_slice if epipolar else 0)
+                   settings.epipolar_slices if epipolar else 0, settings.samples_per_slice if epipolar else 0,
+                   settings.show_cascades)
 
     def as_key(self) -> str:
         return repr(tuple(self.__dict__.values()))
@@ -272,13 +274,13 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     result = g.vmath("MULTIPLY_ADD", g.vmath("SUBTRACT", shadowed, unshadowed), g.combine(scale, scale, scale),
                      gin.outputs["Image"])
 
-    # Show Cascades: tint surfaces with the colour of the cascade they fall in.
-    end_cascade = shadow_test(end).outputs["Cascade"]
-    colour_u = g.div(g.add(end_cascade, 0.5), layout.cascades + 1)
-    colour_v = (shadow_map.PARAM_ROWS.index("color") + 0.5) / len(shadow_map.PARAM_ROWS)
-    colour = g.image(parameter_image, g.combine(colour_u, colour_v, 1.0), interpolation="Closest")
-    tint = g.vlerp((1.0, 1.0, 1.0), colour, g.mul(gin.outputs["Show Cascades"], geometry))
-    result = g.vmath("MULTIPLY", result, tint)
+    if layout.show_cascades:    # tint surfaces with the colour of the cascade they fall in
+        end_cascade = shadow_test(end).outputs["Cascade"]
+        colour_u = g.div(g.add(end_cascade, 0.5), layout.cascades + 1)
+        colour_v = (shadow_map.PARAM_ROWS.index("color") + 0.5) / len(shadow_map.PARAM_ROWS)
+        colour = g.image(parameter_image, g.combine(colour_u, colour_v, 1.0), interpolation="Closest")
+        tint = g.vlerp((1.0, 1.0, 1.0), colour, g.mul(gin.outputs["Show Cascades"], geometry))
+        result = g.vmath("MULTIPLY", result, tint)
     if layout.epipolar:
         result = epipolar.show_sampling(g, gin, result, g.combine(nx, ny, 1.0), epipolar_images[2])
 
