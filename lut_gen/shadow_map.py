@@ -22,7 +22,7 @@ import numpy as np
 EMPTY_DEPTH = -1.0e9            # sun depth of texels no geometry covers: everything is lit there
 BIAS_TEXELS = 2.0               # depth bias, in texel sizes, against self-shadowing of surfaces
 PAD_TEXELS = 2.0                # margin around each cascade's footprint, so PCF taps stay inside
-MAX_CANDIDATES = 1 << 22        # bounds the rows (x 8) per scanline batch (memory)
+MAX_CANDIDATES = 1 << 22        # box texels per rasterisation batch (memory bound)
 CASCADE_COLORS = np.array([(1.0, 0.3, 0.3), (0.3, 1.0, 0.3), (0.3, 0.3, 1.0), (1.0, 1.0, 0.3),
                            (1.0, 0.3, 1.0), (0.3, 1.0, 1.0), (1.0, 0.65, 0.2), (0.7, 0.7, 0.7)])
 
@@ -152,11 +152,11 @@ def rasterize_max_depth(triangles_light: np.ndarray, center, half, resolution: i
     height = hi_y - lo_y + 1
     width = hi_x - lo_x + 1
     # Scanline: per triangle and row of its box, the texel span inside all three edges, so only
-    # covered texels are visited (chunks of rows bound the memory).
-    row_start = np.concatenate([[0], np.cumsum(height)])
+    # covered texels are visited (batches of at most MAX_CANDIDATES box texels bound the memory).
+    box_start = np.concatenate([[0], np.cumsum(width * height)])
     first = 0
     while first < len(height):
-        last = int(np.searchsorted(row_start, row_start[first] + MAX_CANDIDATES // 8, side="right")) - 1
+        last = int(np.searchsorted(box_start, box_start[first] + MAX_CANDIDATES, side="right")) - 1
         last = max(last, first + 1)
         _scan(depth, resolution, planes[first:last], depth_plane[first:last], d0[first:last], lo_x[first:last],
               lo_y[first:last], width[first:last], height[first:last])
