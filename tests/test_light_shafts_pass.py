@@ -114,9 +114,6 @@ def test_every_scattering_mode_matches_the_twin_and_shafts_show(addon_package, t
         psnr = 10 * np.log10(1 / np.mean((shown[0] - shown[1]) ** 2))
         print("epipolar vs brute force PSNR", psnr)
         assert psnr >= 40.0
-        assert cli.main(["pass", "--luts", str(luts_dir), "--passes", str(tmp_path / "passes.exr"), "--technique",
-                         "brute-force", "--inputs", str(tmp_path / "inputs.npz"), "--out", str(tmp_path / "bf.exr")]) == 0
-        np.testing.assert_allclose(read_exr(tmp_path / "bf.exr")[::-1], brute, rtol=1e-5, atol=1e-7)
     # The same pass from the command line, on the passes saved to EXR and the saved inputs.
     frame_update = import_module(addon_package.__name__ + ".addon.scene.frame_update")
     frame_update.export_pass_inputs(scene, tmp_path / "inputs.npz")
@@ -126,6 +123,10 @@ def test_every_scattering_mode_matches_the_twin_and_shafts_show(addon_package, t
                      "--inputs", str(tmp_path / "inputs.npz"), "--out", str(tmp_path / "cli.exr")]) == 0
     from_cli = read_exr(tmp_path / "cli.exr")[::-1]
     np.testing.assert_allclose(from_cli, expected, rtol=1e-5, atol=1e-7)
+    if technique == "EPIPOLAR_SAMPLING":          # the other technique from the same saved inputs
+        assert cli.main(["pass", "--luts", str(luts_dir), "--passes", str(tmp_path / "passes.exr"), "--technique",
+                         "brute-force", "--inputs", str(tmp_path / "inputs.npz"), "--out", str(tmp_path / "bf.exr")]) == 0
+        np.testing.assert_allclose(read_exr(tmp_path / "bf.exr")[::-1], brute, rtol=1e-5, atol=1e-7)
     # Light shafts are present: the ridge's shadow takes light out of the air over the valley
     # and in the sky around the sun, unevenly across the columns of the image.
     darker = shadow_effect.sum(axis=-1)

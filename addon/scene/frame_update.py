@@ -96,8 +96,10 @@ def update_frame(scene, depsgraph) -> bool:
 
 
 def note_depsgraph_update(depsgraph):
-    """Edits to geometry invalidate the shadow maps even when camera and sun stay put."""
-    if depsgraph is None or any(update.is_updated_geometry for update in depsgraph.updates):
+    """Edits to geometry, or to an object (its shadow visibility, say), invalidate the shadow
+    maps and epipolar tables even when camera and sun stay put."""
+    if depsgraph is None or any(update.is_updated_geometry or isinstance(update.id, bpy.types.Object)
+                                for update in depsgraph.updates):
         _state["geometry_changed"] = True
 
 

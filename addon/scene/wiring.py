@@ -64,6 +64,7 @@ def build_light_shafts(scene, optical_image, params):
     layout = nodes.ShaftLayout.from_settings(settings, epipolar_tables.technique(settings))
     nodes.build_light_shaft_groups(optical_image, atlas, table, params, layout,
                                    epipolar_tables.ensure_images(layout))
+    frame_update.forget()           # new groups may read new (empty) images: write them again
 
 
 def match_light_shaft_layout(scene) -> bool:
