@@ -101,7 +101,9 @@ def build_parser() -> argparse.ArgumentParser:
     p_bake.add_argument("--overwrite", action="store_true", help="replace a different bake already in --out")
     _common(p_bake)
     p_sample = sub.add_parser("sample", help="bake (cached) and write a PNG preview of the sky")
-    p_sample.add_argument("--out", type=Path, default=Path("build/sample.png"), help="PNG path")
+    p_sample.add_argument("--out", type=Path, default=Path("build/sky_preview.png"),
+                          help="PNG path (default build/sky_preview.png; a file this command did not write "
+                               "is never replaced)")
     p_sample.add_argument("--luts", type=Path, default=None,
                           help=f"bake directory (default: cache under {default_cache_root()})")
     _common(p_sample)
@@ -139,17 +141,23 @@ def cmd_bake(args) -> int:
     return 0
 
 
+PREVIEW_SOFTWARE = "lut_gen sample"
+
+
 def cmd_sample(args) -> int:
-    from .png import to_srgb8, write_png
+    from .png import to_srgb8, write_png, written_by
     from .preview import DEFAULT_SUN_ELEVATIONS, preview_image
 
     params = params_from_args(args)
+    if args.out.exists() and not written_by(args.out, PREVIEW_SOFTWARE):
+        raise ValueError(f"{args.out} exists and was not written by python -m lut_gen sample; not replacing "
+                         "it (pass another --out, or delete the file)")
     if not args.out.parent.exists():
         args.out.parent.mkdir(parents=True)
     luts, directory, hit = cached_bake(params, resolution=args.resolution, orders=args.orders,
                                        directory=args.luts, progress=TerminalProgress(enabled=not args.quiet))
     print(("cache hit: " if hit else "baked: ") + str(directory))
-    write_png(args.out, to_srgb8(preview_image(luts)))
+    write_png(args.out, to_srgb8(preview_image(luts)), software=PREVIEW_SOFTWARE)
     print(f"wrote {args.out} (sky at sun elevations {', '.join(f'{e:g}' for e in DEFAULT_SUN_ELEVATIONS)} deg)")
     return 0
 

@@ -125,3 +125,20 @@ def test_old_layout_directory_is_refused_and_kept(tmp_path):
     assert result.returncode == 1
     assert "layout version 1" in result.stderr and "re-bake" in result.stderr
     assert {p.name: p.read_bytes() for p in (tmp_path / "l").iterdir()} == before
+
+
+def test_sample_never_replaces_a_file_it_did_not_write(tmp_path):
+    """The default is build/sky_preview.png (not the main command's build/sample.png); a file
+    that is not one of its previews is kept, with a message; its own previews are refreshed."""
+    env = {"OLS_CACHE_DIR": str(tmp_path / "cache")}
+    foreign = tmp_path / "render.png"
+    foreign.write_bytes(b"\x89PNG\r\n\x1a\nsomeone else's render")
+    result = run("sample", "--out", str(foreign), "--resolution", "draft", "--quiet", env_extra=env)
+    assert result.returncode == 1 and "not written by python -m lut_gen sample" in result.stderr
+    assert foreign.read_bytes() == b"\x89PNG\r\n\x1a\nsomeone else's render"
+    own = tmp_path / "preview.png"
+    for _ in range(2):
+        result = run("sample", "--out", str(own), "--resolution", "draft", "--quiet", env_extra=env)
+        assert result.returncode == 0, result.stderr
+    from lut_gen import cli
+    assert cli.build_parser().parse_args(["sample"]).out == Path("build/sky_preview.png")
