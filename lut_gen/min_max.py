@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .shadow_map import PCF_OFFSETS, Camera, ShadowCascades, select_cascade
+from .shadow_map import PCF_OFFSETS, Camera, ShadowCascades, locate, tap_fraction
 
 BLOCK = 8
 
@@ -50,27 +50,12 @@ def build(cascades: ShadowCascades, smooth: bool) -> MinMaxMaps:
 def visibility(cascades: ShadowCascades, maps: MinMaxMaps, points, camera: Camera, best_search: bool = True,
                first_cascade: int = 0) -> np.ndarray:
     """shadow_map.visibility (with PCF as ``maps`` was built), skipping decided points' taps."""
-    points = np.asarray(points, dtype=np.float64)
-    light = points @ cascades.frame.T
-    view_depth = (points - camera.position) @ camera.forward
-    index = select_cascade(cascades, light[..., :2], view_depth, best_search)
-    index = np.maximum(index, min(first_cascade, cascades.count - 1))
-    tested = index < cascades.count
-    safe = np.minimum(index, cascades.count - 1)
-    origin = cascades.centers[safe] - cascades.halves[safe]
-    texel = cascades.texel_sizes()[safe]
+    tested, cascade, row, column, depth, bias = locate(cascades, points, camera, best_search, first_cascade)
     res = cascades.resolution
-    column = np.clip(np.floor((light[..., 0] - origin[..., 0]) / texel[..., 0]), -1, res).astype(np.int64)
-    row = np.clip(np.floor((light[..., 1] - origin[..., 1]) / texel[..., 1]), -1, res).astype(np.int64)
-    depth, bias = light[..., 2], cascades.biases()[safe]
     block_row, block_column = np.clip(row, 0, res - 1) // BLOCK, np.clip(column, 0, res - 1) // BLOCK
-    lit = np.where(depth >= maps.high[safe, block_row, block_column] - bias, 1.0, 0.0)
-    undecided = tested & (depth >= maps.low[safe, block_row, block_column] - bias) & (lit == 0.0)
+    lit = np.where(depth >= maps.high[cascade, block_row, block_column] - bias, 1.0, 0.0)
+    undecided = tested & (depth >= maps.low[cascade, block_row, block_column] - bias) & (lit == 0.0)
     if undecided.any():
-        offsets = PCF_OFFSETS if maps.smooth else PCF_OFFSETS[:1]
-        c, r, k, d, b = safe[undecided], row[undecided], column[undecided], depth[undecided], bias[undecided]
-        taps = np.zeros(len(c))
-        for dx, dy in offsets:
-            taps += d >= cascades.depths[c, np.clip(r + dy, 0, res - 1), np.clip(k + dx, 0, res - 1)] - b
-        lit[undecided] = taps / len(offsets)
+        lit[undecided] = tap_fraction(cascades, cascade[undecided], row[undecided], column[undecided],
+                                      depth[undecided], bias[undecided], maps.smooth)
     return np.where(tested, lit, 1.0)

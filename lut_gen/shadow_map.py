@@ -247,30 +247,43 @@ def select_cascade(cascades: ShadowCascades, light_xy, view_depth, best_search: 
 PCF_OFFSETS = np.array([(0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)])
 
 
-def visibility(cascades: ShadowCascades, points, camera: Camera, smooth: bool = False,
-               best_search: bool = True, first_cascade: int = 0) -> np.ndarray:
-    """Fraction of the sun visible from world points (...): 1 lit, 0 in shadow; the average of
-    5 PCF taps when ``smooth``. Points outside every cascade are lit. As the sample's "First
-    cascade to ray march", cascades below ``first_cascade`` are skipped: their points are
-    tested in that (larger, nested) cascade instead."""
+def locate(cascades: ShadowCascades, points, camera: Camera, best_search: bool = True, first_cascade: int = 0):
+    """Where world points (...) are tested: (tested mask, cascade index, texel row, texel
+    column, sun depth, depth bias). Untested points (outside every cascade) are lit. As the
+    sample's "First cascade to ray march", cascades below ``first_cascade`` are skipped: their
+    points are tested in that (larger, nested) cascade instead. Rows and columns are clamped to
+    [-1, res], which leaves every tap's clamped texel as it was."""
     points = np.asarray(points, dtype=np.float64)
     light = points @ cascades.frame.T
     view_depth = (points - camera.position) @ camera.forward
     index = select_cascade(cascades, light[..., :2], view_depth, best_search)
     index = np.maximum(index, min(first_cascade, cascades.count - 1))
-    tested = index < cascades.count
     safe = np.minimum(index, cascades.count - 1)
     origin = cascades.centers[safe] - cascades.halves[safe]
     texel = cascades.texel_sizes()[safe]
-    column = np.floor((light[..., 0] - origin[..., 0]) / texel[..., 0]).astype(np.int64)
-    row = np.floor((light[..., 1] - origin[..., 1]) / texel[..., 1]).astype(np.int64)
+    res = cascades.resolution
+    column = np.clip(np.floor((light[..., 0] - origin[..., 0]) / texel[..., 0]), -1, res).astype(np.int64)
+    row = np.clip(np.floor((light[..., 1] - origin[..., 1]) / texel[..., 1]), -1, res).astype(np.int64)
+    return index < cascades.count, safe, row, column, light[..., 2], cascades.biases()[safe]
+
+
+def tap_fraction(cascades: ShadowCascades, cascade, row, column, depth, bias, smooth: bool) -> np.ndarray:
+    """Fraction of the PCF taps (5 when ``smooth``, else 1) that a point passes."""
     res = cascades.resolution
     offsets = PCF_OFFSETS if smooth else PCF_OFFSETS[:1]
-    lit = np.zeros(points.shape[:-1])
+    lit = np.zeros(np.shape(depth))
     for dx, dy in offsets:
-        stored = cascades.depths[safe, np.clip(row + dy, 0, res - 1), np.clip(column + dx, 0, res - 1)]
-        lit += light[..., 2] >= stored - cascades.biases()[safe]
-    return np.where(tested, lit / len(offsets), 1.0)
+        stored = cascades.depths[cascade, np.clip(row + dy, 0, res - 1), np.clip(column + dx, 0, res - 1)]
+        lit += depth >= stored - bias
+    return lit / len(offsets)
+
+
+def visibility(cascades: ShadowCascades, points, camera: Camera, smooth: bool = False,
+               best_search: bool = True, first_cascade: int = 0) -> np.ndarray:
+    """Fraction of the sun visible from world points (...): 1 lit, 0 in shadow; the average of
+    5 PCF taps when ``smooth``. Points outside every cascade are lit (see ``locate``)."""
+    tested, cascade, row, column, depth, bias = locate(cascades, points, camera, best_search, first_cascade)
+    return np.where(tested, tap_fraction(cascades, cascade, row, column, depth, bias, smooth), 1.0)
 
 
 # -- packing for the compositor -----------------------------------------------------------------
