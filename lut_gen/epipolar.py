@@ -42,8 +42,6 @@ class EpipolarSettings:
     initial_sample_step: int = 16
     epipole_sampling_density: int = 2
     refinement_threshold: float = 0.03
-    refinement_criterion: str = "INSCATTERING"
-    optimize_sample_locations: bool = True
     use_min_max: bool = True
 
     def checked(self) -> "EpipolarSettings":
@@ -56,6 +54,15 @@ class EpipolarSettings:
         if not np.isfinite(self.refinement_threshold) or self.refinement_threshold < 0:
             raise ValueError(f"the refinement threshold must be >= 0, got {self.refinement_threshold!r}")
         return self
+
+
+def settings_from(controls) -> EpipolarSettings:
+    """EpipolarSettings from anything holding the panel's names (scene.ols, scattering_pass's
+    PassSettings)."""
+    return EpipolarSettings(
+        slices=controls.epipolar_slices, samples=controls.samples_per_slice, steps=controls.num_integration_steps,
+        initial_sample_step=controls.initial_sample_step, epipole_sampling_density=controls.epipole_sampling_density,
+        refinement_threshold=controls.refinement_threshold, use_min_max=controls.use_min_max_optimization)
 
 
 @dataclass(frozen=True)

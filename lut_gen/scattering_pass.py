@@ -59,11 +59,6 @@ class PassSettings:
     show_sampling: bool = False
     use_min_max_optimization: bool = True
 
-    def epipolar_settings(self):
-        return epipolar.EpipolarSettings(
-            slices=self.epipolar_slices, samples=self.samples_per_slice, steps=self.num_integration_steps,
-            initial_sample_step=self.initial_sample_step, epipole_sampling_density=self.epipole_sampling_density,
-            refinement_threshold=self.refinement_threshold, use_min_max=self.use_min_max_optimization)
 
 
 def march_ends(camera: Camera, directions, position, depth, far: float):
@@ -114,7 +109,7 @@ def light_shafts(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades,
     """(shadowed in-scattering per unit sun of every pixel with the settings' technique, Show
     Sampling's overlay or None)."""
     if settings.scattering_technique == "EPIPOLAR_SAMPLING":
-        wanted = settings.epipolar_settings()
+        wanted = epipolar.settings_from(settings)
         frame = epipolar.frame_for(camera, sun, width, height, float(cascades.far_depths[-1]), wanted)
         tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
                                        settings.best_cascade_search, settings.first_cascade_to_ray_march, luts,

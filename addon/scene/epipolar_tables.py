@@ -35,17 +35,9 @@ def too_large(settings) -> str | None:
             "marching runs instead (lower the slices, samples or steps to use epipolar sampling)")
 
 
-def settings_for(settings) -> epipolar.EpipolarSettings:
-    return epipolar.EpipolarSettings(
-        slices=settings.epipolar_slices, samples=settings.samples_per_slice, steps=settings.num_integration_steps,
-        initial_sample_step=settings.initial_sample_step, epipole_sampling_density=settings.epipole_sampling_density,
-        refinement_threshold=settings.refinement_threshold, refinement_criterion=settings.refinement_criterion,
-        optimize_sample_locations=settings.optimize_sample_locations,
-        use_min_max=settings.use_min_max_optimization)
-
-
 def ensure_images(layout):
-    """(lit image, integral image or None) at the layout's size; (None, None) for brute force."""
+    """(lit image, integral image or None, sampling overlay) at the layout's size; all None for
+    brute force."""
     if not layout.epipolar:
         return None, None, None
     width, height = nodes.epipolar.image_size(layout.slices, layout.samples, layout.steps)
@@ -56,17 +48,12 @@ def ensure_images(layout):
             images.append(None)
             continue
         image = bpy.data.images.get(name)
-        if name == SAMPLING_IMAGE:
-            images.append(image or luts.write_data_image(name, np.zeros((1, 1, 4), dtype=np.float32)))
-            continue
-        if image is not None and tuple(image.size) != (width, height):
-            # Image.scale leaves a large float image's pixel count stale (measured in bpy 5.0.1):
-            # make a new one; the groups are rebuilt on it right after.
-            bpy.data.images.remove(image)
-            image = None
-        if image is None:
-            image = luts.write_data_image(name, np.zeros((height, width, 4), dtype=np.float32))
-        images.append(image)
+        if name == SAMPLING_IMAGE:          # any size: written at the render's each frame
+            images.append(image or write_image(name, np.zeros((1, 1, 4), dtype=np.float32)))
+        elif image is None or tuple(image.size) != (width, height):
+            images.append(write_image(name, np.zeros((height, width, 4), dtype=np.float32)))
+        else:
+            images.append(image)
     return tuple(images)
 
 
@@ -74,11 +61,10 @@ def images_intact(layout) -> bool:
     if not layout.epipolar:
         return True
     width, height = nodes.epipolar.image_size(layout.slices, layout.samples, layout.steps)
-    names = [LIT_IMAGE, SAMPLING_IMAGE] + ([INTEGRAL_IMAGE] if layout.single_mode == "INTEGRATION" else [])
-    if any(bpy.data.images.get(n) is None for n in names):
-        return False
-    names.remove(SAMPLING_IMAGE)                # any size: written at the render's each frame
-    return all(bpy.data.images.get(n) is not None and tuple(bpy.data.images[n].size) == (width, height) for n in names)
+    sized = [LIT_IMAGE] + ([INTEGRAL_IMAGE] if layout.single_mode == "INTEGRATION" else [])
+    return (bpy.data.images.get(SAMPLING_IMAGE) is not None      # any size: written per frame
+            and all(bpy.data.images.get(n) is not None and tuple(bpy.data.images[n].size) == (width, height)
+                    for n in sized))
 
 
 def update(scene, camera, sun_direction, cascades, luts_object=None) -> dict:
@@ -88,7 +74,7 @@ def update(scene, camera, sun_direction, cascades, luts_object=None) -> dict:
     percent = scene.render.resolution_percentage / 100.0
     width = max(int(scene.render.resolution_x * percent), 1)
     height = max(int(scene.render.resolution_y * percent), 1)
-    wanted = settings_for(settings)
+    wanted = epipolar.settings_from(settings)
     frame = epipolar.frame_for(camera, sun_direction, width, height, float(cascades.far_depths[-1]), wanted)
     integrate = settings.single_scattering_mode == "INTEGRATION"
     tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
@@ -110,7 +96,7 @@ def update(scene, camera, sun_direction, cascades, luts_object=None) -> dict:
 def write_image(name, pixels):
     """luts.write_data_image, but an image of another size is made anew (Image.scale left a
     table image's pixel count stale in a render, bpy 5.0.1) and the light-shaft group's image
-    nodes are pointed at the new one."""
+    nodes are pointed at the new one (a group being rebuilt gets it anyway)."""
     image = bpy.data.images.get(name)
     height, width = pixels.shape[:2]
     if image is not None and tuple(image.size) != (width, height):

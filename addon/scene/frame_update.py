@@ -13,7 +13,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from ...lut_gen import scattering_pass
+from ...lut_gen import epipolar, scattering_pass
 from .. import nodes
 from . import compositor, epipolar_tables, luts, shadow_maps
 
@@ -60,7 +60,7 @@ def _frame_key(scene, depsgraph):
             settings.shadow_map_resolution, settings.num_cascades, settings.cascade_partitioning_factor,
             settings.enable_light_shafts, settings.enable_light_scattering,
             scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage,
-            epipolar_tables.technique(settings), epipolar_tables.settings_for(settings), settings.single_scattering_mode,
+            epipolar_tables.technique(settings), epipolar.settings_from(settings), settings.single_scattering_mode,
             settings.smooth_shadows, settings.best_cascade_search, settings.first_cascade_to_ray_march,
             settings.show_sampling)
 
