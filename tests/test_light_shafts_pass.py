@@ -207,6 +207,13 @@ def test_bad_scenes_render_without_nan_and_say_why(addon_package, tmp_path, monk
     assert checks.render_problems(scene, depsgraph) == []
     good = render_rgb(scene, tmp_path / "good.exr", composite=True)
 
+    # Epipolar tables too large for memory: brute force runs instead, and the checks say so.
+    epipolar_tables = import_module(addon_package.__name__ + ".addon.scene.epipolar_tables")
+    scene.ols.epipolar_slices, scene.ols.samples_per_slice = 2048, 2048
+    assert epipolar_tables.technique(scene.ols) == "BRUTE_FORCE"
+    assert any("brute force ray marching runs instead" in p for p in checks.render_problems(scene, depsgraph))
+    scene.ols.epipolar_slices, scene.ols.samples_per_slice = 512, 256
+
     # Shadow-map images removed (or emptied): rebuilt before the next render, same picture.
     bpy.data.images.remove(bpy.data.images[shadow_maps.ATLAS_IMAGE])
     again = render_rgb(scene, tmp_path / "again.exr", composite=True)
