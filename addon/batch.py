@@ -18,7 +18,7 @@ import bpy
 
 from .. import lut_gen
 from . import ops, props
-from .scene import checks
+from .scene import checks, luts
 from .scene import sun as sun_lamps
 from .scene import wiring
 
@@ -139,6 +139,10 @@ def main(argv=None) -> int:
             raise BatchError("EEVEE needs EGL, which is missing here (Debian: apt install libegl1 "
                              "libegl-mesa0 libgl1-mesa-dri); use --engine CYCLES")
         scene = prepare(args)
+        if scene.get(wiring.WIRED_KEY):
+            # A wired file: its tables were re-baked on load where they were missing or damaged
+            # (ops.on_file_loaded); never touch, let alone render, tables that still fail.
+            luts.verify_wired(scene[wiring.WIRED_KEY])
         apply_options(scene, args)
         if not scene.get(wiring.WIRED_KEY):
             directory = ops.bake_if_needed(props.atmosphere_params(scene.ols).validate(), args.tables)

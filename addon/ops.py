@@ -36,7 +36,7 @@ def terrain_candidates(context):
 def swap_in(scene, directory):
     """Point an already wired scene at another bake (after a re-bake): rebuild the groups."""
     wiring.build_groups(directory, scene.render.engine)
-    scene[wiring.WIRED_KEY] = directory.name
+    scene[wiring.WIRED_KEY] = lut_gen.exr_io.verify_bake(directory)   # verified by build_groups: cached
     wiring.refresh(scene, force=True)
     luts.release_unused_images()
 
@@ -90,7 +90,7 @@ class OLS_OT_bake_luts(bpy.types.Operator):
             self.report({"ERROR"}, f"Invalid atmosphere setting: {exc}")
             return {"CANCELLED"}
         directory = bake_directory(self._params, self.resolution)
-        if lut_gen.exr_io.read_key(directory) == directory.name:
+        if lut_gen.exr_io.is_intact(directory, directory.name):
             return self._finish(context, directory)
         self._state = {"stage": "starting", "fraction": 0.0, "error": None, "done": False}
 
@@ -158,8 +158,9 @@ class OLS_OT_setup_scene(bpy.types.Operator):
         except (wiring.SetupError, ValueError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        if lut_gen.exr_io.read_key(bake_directory(params, self.resolution)) is None:
-            # Not baked yet: bake in the background, then set up.
+        directory = bake_directory(params, self.resolution)
+        if not lut_gen.exr_io.is_intact(directory, directory.name):
+            # Not baked yet (or damaged): bake in the background, then set up.
             return bpy.ops.ols.bake_luts("INVOKE_DEFAULT", resolution=self.resolution, setup_after=True)
         return self.execute(context)
 
@@ -179,6 +180,12 @@ class OLS_OT_render(bpy.types.Operator):
         if sun_lamps.find_sun(scene) is None:
             self.report({"ERROR"}, "The scene has no Sun lamp: run Set Up Scene")
             return {"CANCELLED"}
+        if scene.get(wiring.WIRED_KEY):
+            try:
+                luts.verify_wired(scene[wiring.WIRED_KEY])
+            except lut_gen.LutError as exc:
+                self.report({"ERROR"}, f"Not rendering: {exc}")
+                return {"CANCELLED"}
         path = Path(bpy.path.abspath(self.filepath))
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -215,7 +222,13 @@ def _update_scene(scene):
             sun_lamps.set_sun_angles(sun, elevation, azimuth)
         wiring.refresh(scene)
     except (lut_gen.LutError, OSError) as exc:
-        print(f"Outdoor Light Scattering: cannot update the sky: {exc}")
+        # Once per problem: depsgraph updates come many times a second while a user works.
+        if str(exc) != _reported.get("problem"):
+            _reported["problem"] = str(exc)
+            print(f"Outdoor Light Scattering: cannot update the sky: {exc}")
+
+
+_reported = {}
 
 
 @persistent
@@ -274,14 +287,18 @@ def on_data_replaced(*_args):
 
 @persistent
 def on_file_loaded(*_args):
-    """A wired file opened where its tables are not baked (another machine, a cleared cache):
-    bake them again for the scene's settings and swap them in."""
+    """A wired file opened where its tables are not baked, or are damaged (another machine, a
+    cleared cache, a truncated file): bake them again for the scene's settings and swap them in."""
     wiring.forget_caches()
     for scene in bpy.data.scenes:
         key = scene.get(wiring.WIRED_KEY)
-        image = bpy.data.images.get(luts.image_name("multiple", key)) if key else None
-        if not key or (image is not None and Path(bpy.path.abspath(image.filepath)).exists()):
+        if not key:
             continue
+        try:
+            luts.verify_wired(key)
+            continue
+        except lut_gen.LutError as exc:
+            print(f"Outdoor Light Scattering: scene {scene.name!r}: {exc}; baking them again")
         resolution = scene.get(wiring.RESOLUTION_KEY, "default")
         try:
             if bpy.app.background:

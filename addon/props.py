@@ -7,11 +7,13 @@ processing mode, min/max texture format) have no meaning in Blender and are left
 
 ``atmosphere_params(settings)`` maps the settings to the table parameters of ``lut_gen``.
 """
+import math
+
 import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty
 
-from ..lut_gen.atmosphere import (DEFAULT_GROUND_ALBEDO, DEFAULT_MIE_SCATTERING, DEFAULT_RAYLEIGH_SCATTERING,
+from ..lut_gen.atmosphere import (DEFAULT_GROUND_ALBEDO, DEFAULT_RAYLEIGH_SCATTERING,
                                   AtmosphereParams, preset)
 
 CONTROL_SETS = ("BASIC", "ADDITIONAL", "TONE_MAPPING")
@@ -125,8 +127,6 @@ LATER_NOTES = {
 }
 LATER_NOTE = "(not built in this version)"
 
-# Mie scattering coefficient at aerosol density 1 for a white Mie colour (1/m).
-MIE_SCATTERING_SCALE = DEFAULT_MIE_SCATTERING[0]
 # The largest default Rayleigh coefficient (blue); the Rayleigh colour is relative to it.
 RAYLEIGH_SCATTERING_SCALE = max(DEFAULT_RAYLEIGH_SCATTERING)
 DEFAULT_RAYLEIGH_COLOR = tuple(c / RAYLEIGH_SCATTERING_SCALE for c in DEFAULT_RAYLEIGH_SCATTERING)
@@ -426,8 +426,8 @@ class OLSSettings(bpy.types.PropertyGroup):
     )
     mie_color: FloatVectorProperty(
         name="Mie Color",
-        description="Mie scattering coefficients relative to the default aerosol (2e-5 per metre "
-                    "for white)",
+        description="Mie scattering coefficients relative to the Atmosphere preset's aerosol (white: "
+                    "the preset's own)",
         subtype='COLOR', size=3, default=DEFAULT_MIE_COLOR, min=0.0, soft_max=1.0, max=10.0,
         update=_rebake_soon,
     )
@@ -532,6 +532,20 @@ class OLSSettings(bpy.types.PropertyGroup):
     )
 
 
+def safe_value(settings, name: str):
+    """``settings.<name>`` as the render may use it: a float that is NaN or infinite (set from
+    Python) reads as the control's default, and anything past the control's range (an
+    ID-property write bypasses it) is clamped into it. One NaN control turned the whole
+    composite NaN before."""
+    value = getattr(settings, name)
+    prop = settings.bl_rna.properties[name]
+    if prop.type not in {"FLOAT", "INT"} or getattr(prop, "array_length", 0):
+        return value
+    if prop.type == "FLOAT" and not math.isfinite(value):
+        value = prop.default
+    return type(value)(min(max(value, prop.hard_min), prop.hard_max))
+
+
 def _f32_value(value):
     """The shortest decimal that round-trips a float32-stored value (what the user typed).
 
@@ -554,18 +568,20 @@ def atmosphere_params(settings) -> AtmosphereParams:
     and absorption map one to one; ground albedo and ozone column apply to the Clear Sky preset
     (Sample 2013 has neither). With custom scattering coefficients on, the Rayleigh coefficients
     are ``max(default Rayleigh) * rayleigh_color`` (so the default colour gives the default
-    coefficients) and the Mie coefficients ``2e-5 * mie_color``; off, both are the defaults.
+    coefficients) and the Mie coefficients the preset's times ``mie_color``; off, both are the
+    preset's.
     """
+    preset_name = "sample-2013" if settings.atmosphere_preset == "SAMPLE_2013" else "clear-sky"
     rayleigh = DEFAULT_RAYLEIGH_SCATTERING
-    mie = DEFAULT_MIE_SCATTERING
+    mie = preset(preset_name).mie_scattering
     if settings.use_custom_scattering_coeffs:
         color = _f32_color(settings.rayleigh_color)
         if color != _f32_color(DEFAULT_RAYLEIGH_COLOR):
             rayleigh = tuple(RAYLEIGH_SCATTERING_SCALE * c for c in color)
         color = _f32_color(settings.mie_color)
         if color != _f32_color(DEFAULT_MIE_COLOR):
-            mie = tuple(MIE_SCATTERING_SCALE * c for c in color)
-    if settings.atmosphere_preset == "SAMPLE_2013":
+            mie = tuple(m * c for m, c in zip(mie, color))
+    if preset_name == "sample-2013":
         return preset("sample-2013", rayleigh_scattering=rayleigh, mie_scattering=mie,
                       aerosol_density=_f32_value(settings.aerosol_density),
                       aerosol_absorption=_f32_value(settings.aerosol_absorption))

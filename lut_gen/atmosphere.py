@@ -37,16 +37,62 @@ def rayleigh_scattering_from_air(wavelengths_nm: Rgb = WAVELENGTHS_NM) -> Rgb:
 
 
 DEFAULT_RAYLEIGH_SCATTERING: Rgb = rayleigh_scattering_from_air()
-DEFAULT_MIE_SCATTERING: Rgb = (2e-5, 2e-5, 2e-5)
+
+
+def aerosol_scattering(optical_depth_550: float, angstrom_exponent: float, scale_height_m: float,
+                       wavelengths_nm: Rgb = WAVELENGTHS_NM) -> Rgb:
+    """Mie scattering coefficients at sea level (1/m) of an aerosol layer with the given scattering
+    optical depth at 550 nm, spectral slope (Angstrom exponent) and scale height."""
+    at_550 = optical_depth_550 / scale_height_m
+    return tuple(at_550 * (550.0 / lam) ** angstrom_exponent for lam in wavelengths_nm)
+
+
+# The Clear Sky aerosol: a typical clear day over land. AERONET's continental sites show an
+# aerosol optical depth of about 0.1 at 550 nm on clear days, an Angstrom exponent of 1-1.5 and
+# an asymmetry parameter near 0.7 (OPAC "continental clean/average": 0.64-0.72). The sample's
+# aerosol (2e-5 / m over 1.2 km: optical depth 0.024, grey, g 0.76) is four times cleaner than
+# that, so its horizon came out ~2.8x too bright against the zenith at a high sun compared with
+# the CIE standard clear sky, which was fitted to measured clear skies (README, "Luminance shape").
+CLEAR_DAY_AEROSOL_OPTICAL_DEPTH = 0.1
+CLEAR_DAY_ANGSTROM_EXPONENT = 1.3
+CLEAR_DAY_MIE_G = 0.7
+MIE_SCALE_HEIGHT_M = 1200.0
+DEFAULT_MIE_SCATTERING: Rgb = aerosol_scattering(CLEAR_DAY_AEROSOL_OPTICAL_DEPTH, CLEAR_DAY_ANGSTROM_EXPONENT,
+                                                 MIE_SCALE_HEIGHT_M)
+# The sample's own aerosol (Yusov 2013), kept by the "sample-2013" preset.
+SAMPLE_MIE_SCATTERING: Rgb = (2e-5, 2e-5, 2e-5)
+SAMPLE_MIE_G = 0.76
 # Lambertian albedo of the ground under the atmosphere: vegetation reflects 0.15-0.25 of the
 # visible, bare soil and rock 0.2-0.35, water under 0.1. 0.2 sits in the middle of the land
 # a terrain scene shows (Bruneton 2017 uses 0.1, Hosek-Wilkie's default is 0.3).
 DEFAULT_GROUND_ALBEDO = 0.2
 
 
+# An optical depth of 10 per kilometre: far hazier than any fog the tables are meant for.
+MAX_COEFFICIENT = 1e-2
+TRIPLES = ("rayleigh_scattering", "mie_scattering", "ozone_absorption")
+# Physical ranges (units of the fields): a planet from a small moon to a gas giant, an
+# atmosphere from 1 km to 1000 km, coefficients up to MAX_COEFFICIENT.
+PARAMETER_RANGES = {
+    "earth_radius": (1e5, 1e8),
+    "atmosphere_height": (1e3, 1e6),
+    "rayleigh_scale_height": (1.0, 1e6),
+    "mie_scale_height": (1.0, 1e6),
+    "rayleigh_scattering": (0.0, MAX_COEFFICIENT),
+    "mie_scattering": (0.0, MAX_COEFFICIENT),
+    "ozone_absorption": (0.0, MAX_COEFFICIENT),
+    "aerosol_density": (0.0, 1e3),
+    "aerosol_absorption": (0.0, 1e3),
+    "mie_g": (-0.999, 0.999),
+    "ozone_column": (0.0, 2000.0),
+    "ground_albedo": (0.0, 1.0),
+}
+
+
 @dataclass(frozen=True)
 class AtmosphereParams:
-    """The media of the sample (Yusov 2013) plus Bruneton's ozone layer, baked spectrally.
+    """Air, a clear day's aerosol, Bruneton's ozone layer and a lit ground, baked spectrally
+    (the "clear-sky" preset); "sample-2013" gives the sample's (Yusov 2013) own media.
 
     ``mie_scattering`` is the coefficient at aerosol density 1; the effective Mie
     scattering is ``mie_scattering * aerosol_density`` and Mie extinction adds
@@ -62,10 +108,10 @@ class AtmosphereParams:
     rayleigh_scattering: Rgb = DEFAULT_RAYLEIGH_SCATTERING
     rayleigh_scale_height: float = 7994.0
     mie_scattering: Rgb = DEFAULT_MIE_SCATTERING
-    mie_scale_height: float = 1200.0
+    mie_scale_height: float = MIE_SCALE_HEIGHT_M
     aerosol_density: float = 1.0
     aerosol_absorption: float = 0.1
-    mie_g: float = 0.76
+    mie_g: float = CLEAR_DAY_MIE_G
     ozone: bool = True
     ozone_absorption: Rgb = field(default=OZONE_ABSORPTION)
     ozone_column: float = 300.0
@@ -82,26 +128,27 @@ class AtmosphereParams:
 
     # -- validation -------------------------------------------------------
     def validate(self) -> "AtmosphereParams":
-        """Raise ValueError naming the first bad field; return self when valid."""
-        positive = ("earth_radius", "atmosphere_height", "rayleigh_scale_height", "mie_scale_height")
-        non_negative = ("aerosol_density", "aerosol_absorption", "ozone_column")
-        for name in positive:
-            _check_number(name, getattr(self, name), lower=0.0, inclusive=False)
-        for name in non_negative:
-            _check_number(name, getattr(self, name), lower=0.0, inclusive=True)
-        _check_number("mie_g", self.mie_g, lower=-0.999, upper=0.999, inclusive=True)
-        _check_number("ground_albedo", self.ground_albedo, lower=0.0, upper=1.0, inclusive=True)
-        for name in ("rayleigh_scattering", "mie_scattering", "ozone_absorption"):
+        """Raise ValueError naming the first bad field and its range; return self when valid.
+        The ranges (PARAMETER_RANGES) keep every result finite: far past them the float
+        arithmetic of the bake overflows into NaN or negative optical depths."""
+        for name, (lower, upper) in PARAMETER_RANGES.items():
             value = getattr(self, name)
-            if not isinstance(value, (tuple, list)) or len(value) != 3:
-                raise ValueError(f"{name} must be three numbers (red, green, blue), got {value!r}")
-            for channel, v in zip("rgb", value):
-                _check_number(f"{name}.{channel}", v, lower=0.0, inclusive=True)
+            if name in TRIPLES:
+                if not isinstance(value, (tuple, list)) or len(value) != 3:
+                    raise ValueError(f"{name} must be three numbers (red, green, blue), got {value!r}")
+                for channel, v in zip("rgb", value):
+                    _check_number(f"{name}.{channel}", v, lower=lower, upper=upper)
+            else:
+                _check_number(name, value, lower=lower, upper=upper)
         for name in ("ozone", "spectral"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
         if self.atmosphere_height >= self.earth_radius:
             raise ValueError("atmosphere_height must be smaller than earth_radius")
+        aerosol = max(self.mie_scattering) * self.aerosol_density * (1.0 + self.aerosol_absorption)
+        if aerosol > MAX_COEFFICIENT:
+            raise ValueError(f"the aerosol extinction (mie_scattering x aerosol_density x (1 + aerosol_absorption)) "
+                             f"must be <= {MAX_COEFFICIENT:g} per metre, got {aerosol:g}")
         return self
 
     # -- derived quantities ----------------------------------------------
@@ -166,10 +213,12 @@ def _spectrum():
 
 
 PRESETS = {
-    # Spectral bake, ozone, ground: the colours of a real clear sky (the default).
+    # Spectral bake, ozone, ground, a clear day's aerosol: the colours and the luminance shape of
+    # a real clear sky (the default).
     "clear-sky": {},
-    # The sample's own media: three wavelengths used as RGB, no ozone.
-    "sample-2013": {"spectral": False, "ozone": False, "ground_albedo": 0.0},
+    # The sample's own media: its aerosol, three wavelengths used as RGB, no ozone, black ground.
+    "sample-2013": {"spectral": False, "ozone": False, "ground_albedo": 0.0,
+                    "mie_scattering": SAMPLE_MIE_SCATTERING, "mie_g": SAMPLE_MIE_G},
 }
 
 
@@ -180,16 +229,11 @@ def preset(name: str, **changes) -> AtmosphereParams:
     return AtmosphereParams(**{**PRESETS[name], **changes})
 
 
-def _check_number(name, value, *, lower=None, upper=None, inclusive=True):
+def _check_number(name, value, *, lower, upper):
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
         raise ValueError(f"{name} must be a number, got {value!r}")
-    if not math.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    if lower is not None and (value < lower or (not inclusive and value == lower)):
-        bound = ">=" if inclusive else ">"
-        raise ValueError(f"{name} must be {bound} {lower:g}, got {value!r}")
-    if upper is not None and value > upper:
-        raise ValueError(f"{name} must be <= {upper:g}, got {value!r}")
+    if not math.isfinite(value) or not lower <= value <= upper:
+        raise ValueError(f"{name} must be between {lower:g} and {upper:g}, got {value!r}")
 
 
 # -- density profiles (relative to sea level, dimensionless) ---------------

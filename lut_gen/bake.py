@@ -577,4 +577,8 @@ def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", ord
     luts.ambient = bake_ambient(luts, res.ambient)
     timings["ambient skylight"] = time.perf_counter() - t0
     report("ambient skylight", 1.0)
+    problem = luts.value_problem()
+    if problem:
+        raise ValueError(f"these atmosphere parameters give unusable tables ({problem}); bring them closer to "
+                         "Earth's (see lut_gen.atmosphere.PARAMETER_RANGES)")
     return luts

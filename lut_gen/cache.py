@@ -7,7 +7,7 @@ from typing import Optional
 
 from .atmosphere import AtmosphereParams
 from .bake import Progress, bake, resolve_resolution
-from .exr_io import bake_key, load, read_key, save
+from .exr_io import bake_key, is_intact, load, removed_if_left_empty, save
 from .sampling import Luts
 
 
@@ -32,14 +32,16 @@ def cache_directory(params: AtmosphereParams, resolution="default", orders: int 
 def bake_into(params: AtmosphereParams, *, resolution="default", orders: int = 4, directory=None,
               progress: Optional[Progress] = None, overwrite: bool = False):
     """(directory, luts): bake and save unless ``directory`` (default: cache_directory) already
-    holds this bake, in which case luts is None and nothing is read beyond a header."""
+    holds this bake whole and undamaged (exr_io.is_intact: the bake manifest and the files' hashes),
+    in which case luts is None. A damaged, incomplete or mixed copy of this bake is baked again."""
     params = params.validate()
     key = key_for(params, resolution, orders)
     directory = Path(directory) if directory else default_cache_root() / key
-    if read_key(directory) == key:
+    if is_intact(directory, key):
         return directory, None
-    luts = bake(params, resolution=resolution, orders=orders, progress=progress)
-    save(luts, directory, overwrite=overwrite)
+    with removed_if_left_empty(directory):
+        luts = bake(params, resolution=resolution, orders=orders, progress=progress)
+        save(luts, directory, overwrite=overwrite)
     return directory, luts
 
 

@@ -11,7 +11,7 @@ from .atmosphere import PRESETS, AtmosphereParams, preset
 from .bake import RESOLUTIONS, bake
 from .cache import cached_bake, default_cache_root, key_for
 from .aerial import MULTIPLE_MODES, SINGLE_MODES
-from .exr_io import LutError, check_output_directory, load, read_key, save
+from .exr_io import LutError, check_output_directory, is_intact, load, read_key, removed_if_left_empty, save
 
 EXIT_ERROR = 1
 
@@ -97,23 +97,23 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m lut_gen", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
     p_bake = sub.add_parser("bake", help="bake the tables into a directory of EXR files")
-    p_bake.add_argument("--out", required=True, type=Path, help="output directory")
+    p_bake.add_argument("--out", required=True, type=path_argument, help="output directory")
     p_bake.add_argument("--overwrite", action="store_true", help="replace a different bake already in --out")
     _common(p_bake)
     p_sample = sub.add_parser("sample", help="bake (cached) and write a PNG preview of the sky")
-    p_sample.add_argument("--out", type=Path, default=Path("build/sky_preview.png"),
+    p_sample.add_argument("--out", type=path_argument, default=Path("build/sky_preview.png"),
                           help="PNG path (default build/sky_preview.png; a file this command did not write "
                                "is never replaced)")
-    p_sample.add_argument("--luts", type=Path, default=None,
+    p_sample.add_argument("--luts", type=path_argument, default=None,
                           help=f"bake directory (default: cache under {default_cache_root()})")
     _common(p_sample)
     p_pass = sub.add_parser("pass", help="the light-scattering pass in numpy on render passes saved to EXR")
-    p_pass.add_argument("--luts", required=True, type=Path, help="bake directory of the scene's tables")
-    p_pass.add_argument("--passes", required=True, type=Path,
+    p_pass.add_argument("--luts", required=True, type=path_argument, help="bake directory of the scene's tables")
+    p_pass.add_argument("--passes", required=True, type=path_argument,
                         help="OpenEXR MultiLayer render with the Combined, Position and Depth passes")
-    p_pass.add_argument("--inputs", required=True, type=Path,
+    p_pass.add_argument("--inputs", required=True, type=path_argument,
                         help="camera, sun, shadow cascades and settings saved by the add-on (.npz)")
-    p_pass.add_argument("--out", required=True, type=Path, help="output EXR (linear RGB)")
+    p_pass.add_argument("--out", required=True, type=path_argument, help="output EXR (linear RGB)")
     p_pass.add_argument("--steps", type=int, help="override Num integration steps")
     p_pass.add_argument("--single", choices=SINGLE_MODES, help="override the single scattering mode")
     p_pass.add_argument("--multiple", choices=MULTIPLE_MODES, help="override the multiple scattering mode")
@@ -123,20 +123,30 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def path_argument(text: str) -> Path:
+    """A path option: an empty one is an error (Path("") would mean the current directory)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path is not allowed")
+    return Path(text)
+
+
 TECHNIQUES = {"epipolar": "EPIPOLAR_SAMPLING", "brute-force": "BRUTE_FORCE"}
 
 
 def cmd_bake(args) -> int:
     params = params_from_args(args)
     key = key_for(params, args.resolution, args.orders)
-    if read_key(args.out) == key:
-        print(f"cache hit: {args.out} already holds this bake ({key}); nothing to do")
+    if is_intact(args.out, key):
+        print(f"cache hit: {args.out} already holds this bake ({key}), verified; nothing to do")
         return 0
-    check_output_directory(args.out, key, overwrite=args.overwrite)
-    progress = TerminalProgress(enabled=not args.quiet)
-    start = time.perf_counter()
-    luts = bake(params, resolution=args.resolution, orders=args.orders, progress=progress)
-    save(luts, args.out, overwrite=args.overwrite)
+    with removed_if_left_empty(args.out):
+        check_output_directory(args.out, key, overwrite=args.overwrite)
+        if read_key(args.out) == key:
+            print(f"{args.out} holds this bake damaged or incomplete; baking it again")
+        progress = TerminalProgress(enabled=not args.quiet)
+        start = time.perf_counter()
+        luts = bake(params, resolution=args.resolution, orders=args.orders, progress=progress)
+        save(luts, args.out, overwrite=args.overwrite)
     print(f"baked {key} in {time.perf_counter() - start:.1f}s -> {args.out}")
     return 0
 

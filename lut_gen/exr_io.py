@@ -22,12 +22,14 @@ import json
 import os
 import struct
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Optional
 
 import numpy as np
 
-from . import atlas, exr_min
+from . import atlas, exr_min, manifest
+from .dir_lock import LOCK_NAME, locked
 from .atomic import atomic_path, default_mode
 from .atmosphere import AtmosphereParams
 from .sampling import Luts
@@ -47,6 +49,7 @@ FILES = {
     "ambient": "ambient_skylight.exr",
 }
 PREFIX = "ols."
+EXR_MAGIC = b"\x76\x2f\x31\x01"
 
 
 class LutError(Exception):
@@ -124,6 +127,45 @@ def read_key(directory) -> Optional[str]:
     return _read_header(path).get(PREFIX + "bake_key")
 
 
+def verify_bake(directory, key: Optional[str] = None) -> str:
+    """The bake key of ``directory`` when it holds one whole, undamaged bake (lut_gen.manifest:
+    every file present and hashing to the manifest written after the bake's last rename);
+    ``key``: and that it is this bake. Raises LutError naming the file and the fix."""
+    try:
+        return manifest.verify(directory, FILES.values(), key)
+    except manifest.ManifestError as exc:
+        if not (Path(directory) / manifest.MANIFEST).exists() and (Path(directory) / FILES["multiple"]).exists():
+            reason = (f"{directory} has no bake manifest: the bake there was interrupted, or made by an older "
+                      "version")
+        else:
+            reason = str(exc)
+        raise LutError(f"{reason}; bake the tables again (Bake Tables in Blender, or python -m lut_gen bake "
+                       f"--out {directory})") from None
+
+
+def is_intact(directory, key: str) -> bool:
+    """Whether ``directory`` holds bake ``key``, whole and undamaged (see verify_bake)."""
+    return manifest.intact(directory, FILES.values(), key)
+
+
+@contextmanager
+def removed_if_left_empty(directory):
+    """A bake that fails leaves nothing behind: a directory it created is removed again when
+    nothing but its lock file is in it."""
+    directory = Path(directory)
+    existed = directory.exists()
+    try:
+        yield
+    except BaseException:
+        if not existed:
+            try:
+                (directory / LOCK_NAME).unlink(missing_ok=True)
+                directory.rmdir()
+            except OSError:
+                pass
+        raise
+
+
 def check_output_directory(directory, key: str, *, overwrite: bool = False) -> Path:
     """Create ``directory`` if needed and make sure a bake with ``key`` may be written there:
     writable, and not holding a different bake unless ``overwrite``. Cheap: call it before
@@ -135,7 +177,13 @@ def check_output_directory(directory, key: str, *, overwrite: bool = False) -> P
         raise LutError(f"cannot create output directory {directory}: {exc.strerror}") from exc
     if not os.access(directory, os.W_OK | os.X_OK):
         raise LutError(f"output directory {directory} is not writable; choose another with --out")
+    for filename in FILES.values():
+        _refuse_foreign_file(directory / filename)
     existing = _existing_key(directory)
+    if existing == UNREADABLE and not overwrite:
+        raise LutError(f"{directory} holds damaged tables whose bake cannot be told "
+                       f"({_read_problem(directory / FILES['multiple'])}); pass --overwrite to replace them, "
+                       "or choose another directory")
     if existing not in (None, key) and not overwrite:
         header = _header_or_empty(directory / FILES["multiple"])
         if header:
@@ -161,7 +209,15 @@ def save(luts: Luts, directory, *, overwrite: bool = False) -> Path:
     OpenEXR = _openexr_or_none()
     directory = Path(directory)
     key = luts_key(luts)
-    check_output_directory(directory, key, overwrite=overwrite)
+    with locked(check_output_directory(directory, key, overwrite=overwrite)):
+        # Again under the lock: a bake that finished meanwhile may have put another bake here.
+        check_output_directory(directory, key, overwrite=overwrite)
+        _remove_stale_temporaries(directory)
+        _write_tables(OpenEXR, directory, key, luts)
+    return directory
+
+
+def _write_tables(OpenEXR, directory: Path, key: str, luts: Luts):
     common = {
         PREFIX + "layout_version": str(LAYOUT_VERSION),
         PREFIX + "baker_version": str(BAKER_VERSION),
@@ -183,15 +239,18 @@ def save(luts: Luts, directory, *, overwrite: bool = False) -> Path:
             staged.append((tmp, directory / FILES[name]))
             _write_rgb(OpenEXR, tmp, image[::-1], header)
             os.chmod(tmp, default_mode())
+        # No manifest while the files change: a bake killed between two renames leaves a
+        # directory that reads as damaged, not as a mix taken for a whole bake.
+        manifest.remove(directory)
         for tmp, final in staged:
             os.replace(tmp, final)
-    except OSError as exc:
+        manifest.write(directory, key, FILES.values())
+    except (OSError, manifest.ManifestError) as exc:
         raise LutError(f"cannot write tables to {directory}: {exc}") from exc
     finally:
         for tmp, _ in staged:
             if os.path.exists(tmp):
                 os.unlink(tmp)
-    return directory
 
 
 def _check_layout(directory, header: dict):
@@ -202,11 +261,62 @@ def _check_layout(directory, header: dict):
                        "empty directory, or pass --overwrite to replace them")
 
 
+UNREADABLE = "unreadable files"
+
+
 def _existing_key(directory: Path):
+    """Whose bake the directory holds: its manifest's key, else the key in the header of any
+    readable table; UNREADABLE when there are tables but none says; None when there are none."""
     try:
-        return read_key(directory)
-    except LutError:
-        return "unreadable files"
+        return manifest.read(directory)["bake_key"]
+    except manifest.ManifestError:
+        pass
+    present = [directory / name for name in FILES.values() if os.path.lexists(directory / name)]
+    for path in present:
+        try:
+            key = _read_header(path).get(PREFIX + "bake_key")
+        except LutError:
+            continue
+        if key:
+            return key
+    return UNREADABLE if present else None
+
+
+def _read_problem(path: Path) -> str:
+    try:
+        _read_header(path)
+    except LutError as exc:
+        return str(exc).split(";")[0]
+    return f"{path.name} is readable"
+
+
+def _refuse_foreign_file(path: Path):
+    """A file named like a table that lut_gen did not write belongs to someone else: never
+    replace it. Ours, even damaged, is a regular file that starts with the EXR magic number and
+    holds our header attributes near its start (or is empty: nothing to lose)."""
+    if not os.path.lexists(path):
+        return
+    try:
+        manifest.regular_file_stat(path)
+        with open(path, "rb") as f:
+            head = f.read(1 << 16)
+    except (manifest.ManifestError, OSError):
+        head = None
+    if head is not None and (head == b"" or (head.startswith(EXR_MAGIC) and PREFIX.encode() in head)):
+        return
+    raise LutError(f"{path} exists and was not written by lut_gen; move it away or choose another "
+                   "directory (lut_gen never replaces it)")
+
+
+def _remove_stale_temporaries(directory: Path):
+    """Temporary files a killed bake left (".<table>.XXXX.tmp"); called under the directory lock,
+    so no running bake owns them."""
+    for filename in FILES.values():
+        for stale in directory.glob(f".{filename}.*.tmp"):
+            try:
+                stale.unlink()
+            except OSError:
+                pass
 
 
 def _header_or_empty(path: Path) -> dict:
@@ -219,15 +329,20 @@ def _header_or_empty(path: Path) -> dict:
 def _read_header(path: Path) -> dict:
     """String attributes of the header (pure Python: also works in Blender, without OpenEXR)."""
     try:
+        manifest.regular_file_stat(path)
         return exr_min.read_string_attributes(path)
+    except manifest.ManifestError as exc:
+        raise LutError(f"{exc}; re-bake with python -m lut_gen bake") from None
     except (OSError, ValueError, IndexError, struct.error) as exc:
         raise LutError(f"{path} is not a readable EXR file ({exc}); re-bake with python -m lut_gen bake") from exc
 
 
 def _read_image(path: Path):
     OpenEXR = _require_openexr()
-    if not path.exists():
-        raise LutError(f"{path} is missing; re-bake with python -m lut_gen bake --out {path.parent}")
+    try:
+        manifest.regular_file_stat(path)
+    except manifest.ManifestError as exc:
+        raise LutError(f"{exc}; re-bake with python -m lut_gen bake --out {path.parent}") from None
     try:
         with OpenEXR.File(str(path)) as exr:
             header = dict(exr.header())
@@ -245,6 +360,7 @@ def load(directory, *, params: Optional[AtmosphereParams] = None) -> Luts:
     directory = Path(directory)
     if not directory.is_dir():
         raise LutError(f"{directory} is not a directory of baked tables; bake one with python -m lut_gen bake --out {directory}")
+    verify_bake(directory)
     images, headers = {}, {}
     for name, filename in FILES.items():
         headers[name], images[name] = _read_image(directory / filename)
@@ -270,6 +386,9 @@ def load(directory, *, params: Optional[AtmosphereParams] = None) -> Luts:
                     orders=orders)
     except (KeyError, ValueError, TypeError) as exc:
         raise LutError(f"{directory} has an invalid header ({exc}); re-bake it") from exc
+    problem = luts.value_problem()
+    if problem:
+        raise LutError(f"{directory}: {problem}; re-bake it")
     if luts_key(luts) != keys["multiple"]:
         raise LutError(f"{directory}: header does not match the stored tables; re-bake it")
     if params is not None and params.validate() != stored:

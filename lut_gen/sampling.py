@@ -96,6 +96,18 @@ class Luts:
         if self.single_mie is None:
             self.single_mie = np.zeros_like(self.single)
 
+    def value_problem(self) -> Optional[str]:
+        """What makes the tables unusable (a non-finite or negative value), None when they are
+        fine. Checked after a bake and on every load: NaN in a table turns a whole render NaN.
+        The optical-depth table holds EARTH_HIT_NET_DENSITY where rays hit the Earth."""
+        for name in ("single", "single_mie", "higher", "multiple", "optical_depth", "ambient"):
+            table = getattr(self, name)
+            if not np.all(np.isfinite(table)):
+                return f"the {name} table holds non-finite values"
+            if np.any(table < 0):
+                return f"the {name} table holds negative values"
+        return None
+
     @property
     def dims(self) -> Tuple[int, int, int, int]:
         return tuple(int(n) for n in self.single.shape[:4])

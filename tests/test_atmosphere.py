@@ -26,10 +26,12 @@ def test_defaults_are_spectral_with_ozone_and_ground():
     p = AtmosphereParams()
     assert p.spectral and p.ozone and p.ozone_column == 300.0 and 0.1 <= p.ground_albedo <= 0.3
     assert p == preset("clear-sky")
-    # RGB coefficients of the spectral media: grey Mie stays grey, Rayleigh stays blue-heavy,
+    # RGB coefficients of the spectral media: the clear day's aerosol (optical depth 0.1 at
+    # 550 nm, Angstrom 1.3) stays bluish, Rayleigh stays blue-heavy,
     # ozone (Chappuis band, 500-700 nm) takes red and green, hardly blue.
-    np.testing.assert_allclose(p.mie, 2e-5, rtol=1e-9)
-    np.testing.assert_allclose(p.mie_extinction, 2.2e-5, rtol=1e-9)
+    assert p.mie[2] > p.mie[1] > p.mie[0]
+    assert p.mie[1] * p.mie_scale_height == pytest.approx(0.1, rel=0.02)
+    np.testing.assert_allclose(p.mie_extinction, 1.1 * p.mie, rtol=1e-9)
     assert p.rayleigh[2] > 2 * p.rayleigh[1] > 2 * p.rayleigh[0]
     assert p.ozone_extinction[0] > 1e-6 and p.ozone_extinction[1] > 1e-6 and p.ozone_extinction[2] < 2e-7
 
@@ -41,7 +43,7 @@ def test_unknown_preset_is_refused_with_the_choices():
 
 
 def test_aerosol_density_and_absorption_scale_mie():
-    p = AtmosphereParams(spectral=False, aerosol_density=2.0, aerosol_absorption=0.3)
+    p = preset("sample-2013", aerosol_density=2.0, aerosol_absorption=0.3)
     np.testing.assert_allclose(p.mie, 4e-5)
     np.testing.assert_allclose(p.mie_extinction, 4e-5 * 1.3)
 

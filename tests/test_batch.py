@@ -49,15 +49,80 @@ def test_eevee_without_egl_is_reported(batch, tmp_path, capsys, monkeypatch):
     assert "EEVEE needs EGL" in error_line(capsys)
 
 
-def test_damaged_tables_are_reported(batch, tmp_path, capsys, addon_package):
+def test_damaged_cached_tables_are_baked_again(batch, tmp_path, addon_package):
+    """A damaged file in the cache is not a cache hit: the bake is repaired, then rendered."""
     ops = import_module(addon_package.__name__ + ".addon.ops")
-    directory = ops.bake_if_needed(addon_package.lut_gen.AtmosphereParams(), "draft")
+    lut_gen = addon_package.lut_gen
+    directory = ops.bake_if_needed(lut_gen.AtmosphereParams(), "draft")
     path = directory / "multiple_scattering.exr"
     path.write_bytes(path.read_bytes()[:4096])          # header intact, pixels cut off
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    assert batch.main(["--sample", "--tables", "draft", "--output", str(tmp_path / "o.png")]) == 1
+    assert batch.main(["--sample", "--tables", "draft", "--resolution", "32x18", "--samples", "1",
+                       "--output", str(tmp_path / "o.png")]) == 0
+    lut_gen.load(directory)                              # whole again
+
+
+@pytest.fixture
+def wired_blend(batch, tmp_path, addon_package):
+    """The sample scene wired to draft tables in the test's cache, saved as a .blend."""
+    ops = import_module(addon_package.__name__ + ".addon.ops")
+    wiring = import_module(addon_package.__name__ + ".addon.scene.wiring")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    args = batch.parse_args(["--sample", "--tables", "draft", "--output", str(tmp_path / "x.png")])
+    scene = batch.prepare(args)
+    directory = ops.bake_if_needed(addon_package.lut_gen.AtmosphereParams(), "draft")
+    wiring.wire_scene(scene, directory, [o for o in scene.objects if o.select_get()], resolution="draft")
+    blend = tmp_path / "wired.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    return blend, directory
+
+
+def render_args(blend, out):
+    return ["--blend", str(blend), "--resolution", "32x18", "--samples", "1", "--output", str(out)]
+
+
+def test_wired_blend_with_damaged_tables_is_repaired_before_it_renders(batch, wired_blend, tmp_path, capsys,
+                                                                       addon_package):
+    """Issue 9, item 1: a truncated table in a wired .blend's cache rendered 99.7% wrong pixels
+    with exit 0. Now the file load finds the damage, bakes again, and the render is right."""
+    blend, directory = wired_blend
+    assert batch.main(render_args(blend, tmp_path / "good.png")) == 0
+    good = bpy.data.images.load(str(tmp_path / "good.png"))
+    want = np.array(good.pixels[:])
+    path = directory / "optical_depth.exr"
+    path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    capsys.readouterr()
+    assert batch.main(render_args(blend, tmp_path / "again.png")) == 0
+    assert "optical_depth.exr" in capsys.readouterr().out          # said what it repaired
+    again = bpy.data.images.load(str(tmp_path / "again.png"))
+    assert np.abs(np.array(again.pixels[:]) - want).max() <= 2 / 255
+    addon_package.lut_gen.load(directory)
+
+
+def test_wired_blend_with_damaged_tables_that_cannot_be_baked_is_not_rendered(batch, wired_blend, tmp_path,
+                                                                              capsys, monkeypatch):
+    blend, directory = wired_blend
+    path = directory / "optical_depth.exr"
+    path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    (tmp_path / "file").write_text("x")
+    monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "file" / "cache"))     # no bake can be written
+    out = tmp_path / "bad.png"
+    assert batch.main(render_args(blend, out)) == 1
     line = error_line(capsys)
-    assert "multiple_scattering.exr" in line and ("damaged" in line or "cannot be read" in line)
+    assert "optical_depth.exr" in line and "bake the tables again" in line
+    assert not out.exists()
+
+
+def test_render_operator_refuses_damaged_tables(wired_blend, tmp_path, addon_package):
+    blend, directory = wired_blend
+    path = directory / "higher_order_scattering.exr"
+    data = bytearray(path.read_bytes())
+    data[-100] ^= 1
+    path.write_bytes(bytes(data))
+    out = tmp_path / "op.png"
+    with pytest.raises(RuntimeError, match="higher_order_scattering.exr"):
+        bpy.ops.ols.render(filepath=str(out))
+    assert not out.exists()
 
 
 def test_unwritable_output(batch, tmp_path, capsys):

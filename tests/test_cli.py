@@ -39,19 +39,28 @@ def test_every_param_has_an_option(tmp_path):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--aerosol-density", "-1"], "aerosol_density must be >= 0"),
-    (["--mie-scale-height", "nan"], "mie_scale_height must be finite"),
-    (["--ground-albedo", "-0.2"], "ground_albedo must be >= 0"),
-    (["--ground-albedo", "nan"], "ground_albedo must be finite"),
-    (["--ozone-column", "-5"], "ozone_column must be >= 0"),
-    (["--ozone-column", "nan"], "ozone_column must be finite"),
+    (["--aerosol-density", "-1"], "aerosol_density must be between 0 and 1000"),
+    (["--mie-scale-height", "nan"], "mie_scale_height must be between 1 and 1e+06"),
+    (["--ground-albedo", "-0.2"], "ground_albedo must be between 0 and 1"),
+    (["--ground-albedo", "nan"], "ground_albedo must be between 0 and 1"),
+    (["--ozone-column", "-5"], "ozone_column must be between 0 and 2000"),
+    (["--ozone-column", "nan"], "ozone_column must be between 0 and 2000"),
     (["--preset", "sample-2012"], "unknown preset 'sample-2012'; choose one of clear-sky, sample-2013"),
+    # Huge finite values (issue 9): all-NaN tables or negative optical depths before.
+    (["--aerosol-density", "1e30"], "aerosol_density must be between 0 and 1000"),
+    (["--aerosol-absorption", "1e308"], "aerosol_absorption must be between 0 and 1000"),
+    (["--mie-scattering", "1e-5", "1e-5", "1e308"], "mie_scattering.b must be between 0 and 0.01"),
+    (["--rayleigh-scattering", "1e308", "1e-5", "1e-5"], "rayleigh_scattering.r must be between 0 and 0.01"),
+    (["--ozone-absorption", "1e-6", "1e308", "1e-6"], "ozone_absorption.g must be between 0 and 0.01"),
+    (["--earth-radius", "1e20"], "earth_radius must be between 100000 and 1e+08"),
+    (["--earth-radius=1e308"], "earth_radius must be between 100000 and 1e+08"),
+    (["--aerosol-density", "900", "--aerosol-absorption", "900"], "aerosol extinction"),
 ])
 def test_bad_params_give_one_line_errors(tmp_path, args, message):
     result = run("bake", "--out", str(tmp_path / "l"), *SMALL, *args)
     assert result.returncode == 1
     assert result.stderr.strip().count("\n") == 0 and message in result.stderr
-    assert not (tmp_path / "l").exists() or not any((tmp_path / "l").iterdir())
+    assert not (tmp_path / "l").exists()
 
 
 def test_unwritable_out(tmp_path):
@@ -74,8 +83,19 @@ def test_corrupt_bake_dir_is_reported(tmp_path):
     path = tmp_path / "l" / "multiple_scattering.exr"
     path.write_bytes(path.read_bytes()[:1000])
     result = run("sample", "--luts", str(tmp_path / "l"), "--out", str(tmp_path / "s.png"), *SMALL, "--quiet")
-    # A damaged bake directory is reported, not silently replaced.
-    assert result.returncode == 1 and "multiple_scattering.exr" in result.stderr
+    # A damaged copy of the same bake is not a cache hit: it is baked again, and said so.
+    assert result.returncode == 0 and "baked: " in result.stdout, result.stderr
+    import lut_gen
+    lut_gen.load(tmp_path / "l")
+    # Damage that hides whose bake it was (the manifest gone too) is refused without --overwrite.
+    (tmp_path / "l" / "bake_manifest.json").unlink()
+    for name in ("multiple_scattering.exr", "single_scattering.exr", "single_mie_scattering.exr", "higher_order_scattering.exr",
+                 "optical_depth.exr", "ambient_skylight.exr"):
+        (tmp_path / "l" / name).write_bytes((tmp_path / "l" / name).read_bytes()[:1000])
+    before = {p.name: p.read_bytes() for p in (tmp_path / "l").iterdir()}
+    result = run("bake", "--out", str(tmp_path / "l"), *SMALL, "--aerosol-density", "2", "--quiet")
+    assert result.returncode == 1 and "--overwrite" in result.stderr
+    assert {p.name: p.read_bytes() for p in (tmp_path / "l").iterdir()} == before
 
 
 def test_bad_resolution_is_a_usage_error(tmp_path):
@@ -105,7 +125,8 @@ def test_sample_preset_bakes_the_samples_media(tmp_path):
     assert result.returncode == 0, result.stderr
     import lut_gen
     params = lut_gen.load(tmp_path / "l").params
-    assert params == lut_gen.AtmosphereParams(spectral=False, ozone=False, ground_albedo=0.0)
+    assert params == lut_gen.preset("sample-2013")
+    assert params.mie_scattering == (2e-5, 2e-5, 2e-5) and params.mie_g == 0.76
     assert (not params.spectral and not params.ozone and params.ground_albedo == 0.0)
 
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import lut_gen
-from lut_gen import LutError, atlas
+from lut_gen import LutError, atlas, manifest
 from lut_gen.exr_io import FILES
 
 OpenEXR = pytest.importorskip("OpenEXR")
@@ -29,7 +29,9 @@ def test_round_trip_is_exact(small_luts, saved):
     for name in ("single", "higher", "multiple", "optical_depth", "ambient"):
         np.testing.assert_array_equal(getattr(loaded, name), getattr(small_luts, name))
     assert loaded.params == small_luts.params and loaded.orders == 2
-    assert sorted(p.name for p in saved.iterdir()) == sorted(FILES.values())   # no temporaries left
+    # The tables, the bake manifest written after them, the directory lock; no temporaries left.
+    assert sorted(p.name for p in saved.iterdir()) == sorted([*FILES.values(), "bake_manifest.json",
+                                                              ".ols_bake.lock"])
 
 
 def test_atlas_layout_matches_the_documented_packing(small_luts, saved):
@@ -41,7 +43,7 @@ def test_atlas_layout_matches_the_documented_packing(small_luts, saved):
     i_h, i_a, i_s, i_t = 5, 11, 3, 2
     np.testing.assert_array_equal(pixels[i_h * n_s + i_s, i_t * n_a + i_a], small_luts.multiple[i_h, i_a, i_s, i_t])
     assert json.loads(header["ols.dims"]) == [n_h, n_a, n_s, n_t]
-    assert json.loads(header["ols.params"])["mie_g"] == 0.76
+    assert json.loads(header["ols.params"])["mie_g"] == small_luts.params.mie_g
     np.testing.assert_array_equal(atlas.unpack(atlas.pack(small_luts.single), small_luts.dims), small_luts.single)
 
 
@@ -61,8 +63,18 @@ def test_truncated_file(saved):
     path = saved / FILES["single"]
     data = path.read_bytes()
     path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(LutError, match="single_scattering.exr is damaged"):
+        lut_gen.load(saved)
+    reseal(saved)               # even with a manifest that vouches for it, OpenEXR refuses it
     with pytest.raises(LutError, match="single_scattering.exr is corrupt or truncated"):
         lut_gen.load(saved)
+
+
+def reseal(directory):
+    """Rewrite the bake manifest over whatever the directory now holds: the checks behind the
+    manifest (layout, bake keys, pixel hashes) must still catch a tampered directory."""
+    key = json.loads((directory / manifest.MANIFEST).read_text())["bake_key"]
+    manifest.write(directory, key, FILES.values())
 
 
 def test_garbage_file(saved):
@@ -88,6 +100,7 @@ def rewrite(path: Path, change_header=None, change_pixels=None):
 def test_layout_version_mismatch(saved):
     for name in FILES.values():
         rewrite(saved / name, change_header=lambda h: h.update({"ols.layout_version": "0"}))
+    reseal(saved)
     with pytest.raises(LutError, match="layout version 0"):
         lut_gen.load(saved)
 
@@ -96,6 +109,9 @@ def test_files_of_different_bakes_are_refused(saved, tmp_path):
     other = lut_gen.bake(lut_gen.AtmosphereParams(aerosol_density=2.0), resolution=(8, 16, 8, 4), orders=2)
     lut_gen.save(other, tmp_path / "other")
     os.replace(tmp_path / "other" / FILES["higher"], saved / FILES["higher"])
+    with pytest.raises(LutError, match="higher_order_scattering.exr is damaged or comes from another bake"):
+        lut_gen.load(saved)
+    reseal(saved)
     with pytest.raises(LutError, match="mixes files of different bakes"):
         lut_gen.load(saved)
 
@@ -104,6 +120,7 @@ def test_damaged_pixels_fail_the_content_hash(saved):
     def damage(pixels):
         pixels[0, 0, 0] += 1.0
     rewrite(saved / FILES["multiple"], change_pixels=damage)
+    reseal(saved)
     with pytest.raises(LutError, match="content hash"):
         lut_gen.load(saved)
 

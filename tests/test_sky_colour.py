@@ -78,20 +78,16 @@ def cie_rms(luts, sun_elevation):
 
 @pytest.fixture(scope="module")
 def hazy_luts():
-    """Aerosol density 4: an aerosol optical depth of ~0.1 at 550 nm, a typical clear day."""
+    """Aerosol density 4: an aerosol optical depth of ~0.44 at 550 nm, a hazy day."""
     return lut_gen.bake(lut_gen.AtmosphereParams(aerosol_density=4.0), resolution="draft")
 
 
-@pytest.mark.parametrize("sun_elevation, default_limit, hazy_limit",
-                         [(20.0, 0.11, 0.11), (40.0, 0.15, 0.12), (60.0, 0.21, 0.10)])
-def test_luminance_distribution_follows_the_cie_clear_sky(default_luts, hazy_luts, sun_elevation,
-                                                          default_limit, hazy_limit):
-    """Measured RMS (README): default 0.10 / 0.14 / 0.19 at sun 20 / 40 / 60 deg, aerosol
-    density 4 0.10 / 0.11 / 0.09. The sample's default aerosol (optical depth 0.026) is cleaner
-    than the skies the CIE type 12 was fitted to, so its horizon is brighter relative to the
-    zenith at a high sun; with a typical aerosol load the shape matches."""
-    assert cie_rms(default_luts, sun_elevation) <= default_limit
-    assert cie_rms(hazy_luts, sun_elevation) <= hazy_limit
+@pytest.mark.parametrize("sun_elevation", [20.0, 40.0, 60.0])
+def test_luminance_distribution_follows_the_cie_clear_sky(default_luts, sun_elevation):
+    """The issue's bar: RMS <= 0.10. Measured (README): 0.083 / 0.092 / 0.066 at sun 20 / 40 / 60
+    deg with the clear day's aerosol of the default; the sample's four times cleaner aerosol gave
+    0.10 / 0.14 / 0.19 (its horizon too bright against the zenith at a high sun)."""
+    assert cie_rms(default_luts, sun_elevation) <= 0.10
 
 
 def ring_luminance(luts, sun_elevation, angles_deg):

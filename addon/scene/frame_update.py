@@ -14,7 +14,7 @@ import bpy
 import numpy as np
 
 from ...lut_gen import epipolar, scattering_pass
-from .. import nodes
+from .. import nodes, props
 from . import compositor, epipolar_tables, luts, shadow_maps
 
 _state = {"key": None, "geometry_changed": True, "rendering": False}
@@ -118,7 +118,7 @@ def forget():
 def pass_settings(scene, sun_strength: float):
     """scene.ols as the twin's PassSettings (lut_gen.scattering_pass)."""
     fields = scattering_pass.PassSettings.__dataclass_fields__
-    values = {name: getattr(scene.ols, name) for name in fields if hasattr(scene.ols, name)}
+    values = {name: props.safe_value(scene.ols, name) for name in fields if hasattr(scene.ols, name)}
     return scattering_pass.PassSettings(**values, sun_strength=sun_strength)
 
 

@@ -6,9 +6,18 @@ from pathlib import Path
 
 import bpy
 
-from ...lut_gen.exr_io import FILES, LutError, read_key
+from ...lut_gen.exr_io import FILES, LutError, verify_bake
 
 IMAGE_PREFIX = "OLS"
+
+
+FILE_STAMP = "ols_file_stamp"
+
+
+def file_stamp(path) -> str:
+    """Size and modification time of a table file: tells an image whether it is stale."""
+    info = Path(path).stat()
+    return f"{info.st_size}:{info.st_mtime_ns}"
 
 
 def image_name(table: str, key: str) -> str:
@@ -17,16 +26,16 @@ def image_name(table: str, key: str) -> str:
 
 def load_images(directory) -> dict:
     """{table: bpy Image} for every file of the bake in ``directory``; reuses images already
-    loaded for the same bake key. Raises LutError (from lut_gen) for a missing or damaged bake."""
+    loaded for the same bake key and file. Raises LutError (from lut_gen) naming the file for a
+    missing, damaged, incomplete or mixed bake: every file is verified against the bake's
+    manifest first (lut_gen.manifest; hashes cached per file by size and mtime)."""
     directory = Path(directory)
-    key = read_key(directory)
-    if key is None:
+    if not directory.is_dir():
         raise LutError(f"{directory} holds no baked tables; run Bake Tables first")
+    key = verify_bake(directory)
     images = {}
     for table, filename in FILES.items():
         path = directory / filename
-        if not path.exists():
-            raise LutError(f"{path} is missing; bake the tables again")
         name = image_name(table, key)
         image = bpy.data.images.get(name)
         if image is None or bpy.path.abspath(image.filepath) != str(path):
@@ -37,8 +46,11 @@ def load_images(directory) -> dict:
             except RuntimeError as exc:
                 raise LutError(f"{path} cannot be read ({exc}); bake the tables again") from None
             image.name = name
-        if image.size[0] == 0:                          # e.g. the file was missing when the .blend opened
+            image[FILE_STAMP] = file_stamp(path)
+        if image.size[0] == 0 or image.get(FILE_STAMP) != file_stamp(path):
+            # The file was missing when the .blend opened, or was re-baked since it was read.
             image.reload()
+            image[FILE_STAMP] = file_stamp(path)
         if image.size[0] == 0 or image.size[1] == 0:    # Blender could not decode it
             bpy.data.images.remove(image)
             raise LutError(f"{path} is damaged (Blender cannot decode it); bake the tables again")
@@ -49,6 +61,22 @@ def load_images(directory) -> dict:
         image.use_half_precision = False
         images[table] = image
     return images
+
+
+def wired_directory(key: str):
+    """The folder the images of bake ``key`` were loaded from, None when they are not loaded."""
+    image = bpy.data.images.get(image_name("multiple", key))
+    return Path(bpy.path.abspath(image.filepath)).parent if image is not None and image.filepath else None
+
+
+def verify_wired(key: str) -> Path:
+    """The folder of bake ``key``'s images once its files are verified whole and undamaged (the
+    manifest and every file's hash); LutError naming the file and the fix otherwise."""
+    directory = wired_directory(key)
+    if directory is None:
+        raise LutError(f"the tables of bake {key[:8]} are not loaded in this file; run Set Up Scene")
+    verify_bake(directory, key)
+    return directory
 
 
 def release_unused_images():

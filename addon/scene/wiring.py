@@ -175,7 +175,7 @@ def wire_scene(scene, bake_dir, terrain_objects=(), sun=None, resolution="defaul
         wire_terrain(obj, sun)
     build_light_shafts(scene, images["optical_depth"], params)
     compositor.wire_compositor(scene)
-    scene[WIRED_KEY] = lut_gen.exr_io.read_key(bake_dir)
+    scene[WIRED_KEY] = lut_gen.exr_io.verify_bake(bake_dir)     # verified by build_groups: cached
     scene[RESOLUTION_KEY] = resolution
     refresh(scene, force=True)
     luts.release_unused_images()
@@ -187,6 +187,7 @@ class BakeInfo:
 
     def __init__(self, key: str):
         self.key = key
+        luts.verify_wired(key)          # never read damaged tables (hashes cached: cheap)
         self.multiple = bpy.data.images.get(luts.image_name("multiple", key))
         self.single_mie = bpy.data.images.get(luts.image_name("single_mie", key))
         self.ambient = bpy.data.images.get(luts.image_name("ambient", key))
