@@ -221,7 +221,7 @@ def _update_scene(scene):
                                                                 scene.frame_end)
             sun_lamps.set_sun_angles(sun, elevation, azimuth)
         wiring.refresh(scene)
-    except (lut_gen.LutError, OSError) as exc:
+    except (lut_gen.LutError, OSError, ValueError) as exc:
         # Once per problem: depsgraph updates come many times a second while a user works.
         if str(exc) != _reported.get("problem"):
             _reported["problem"] = str(exc)

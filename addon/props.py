@@ -538,12 +538,22 @@ def safe_value(settings, name: str):
     ID-property write bypasses it) is clamped into it. One NaN control turned the whole
     composite NaN before."""
     value = getattr(settings, name)
-    prop = settings.bl_rna.properties[name]
-    if prop.type not in {"FLOAT", "INT"} or getattr(prop, "array_length", 0):
+    prop = settings.bl_rna.properties.get(name)
+    if prop is None or prop.type not in {"FLOAT", "INT"} or getattr(prop, "array_length", 0):
         return value
     if prop.type == "FLOAT" and not math.isfinite(value):
         value = prop.default
     return type(value)(min(max(value, prop.hard_min), prop.hard_max))
+
+
+class Sanitized:
+    """scene.ols as the render reads it: every number through safe_value."""
+
+    def __init__(self, settings):
+        self._settings = settings
+
+    def __getattr__(self, name):
+        return safe_value(self._settings, name)
 
 
 def _f32_value(value):

@@ -261,3 +261,47 @@ def test_undo_restores_the_unwired_scene_in_one_step(addon):
     module(addon, "addon.scene.sun").set_sun_angles(bpy.data.objects["OLS Sun"], 30.0, 10.0)
     bpy.context.view_layer.update()                 # handlers run on the redone data without errors
     module(addon, "addon.scene.wiring").refresh(scene, force=True)
+
+
+def scene_state(scene):
+    """What Set Up Scene may change, to compare before and after a failed run."""
+    tree = scene.compositing_node_group
+    return {"world": scene.world.name if scene.world else None,
+            "groups": sorted(g.name for g in bpy.data.node_groups),
+            "images": sorted(i.name for i in bpy.data.images),
+            "materials": sorted(m.name for m in bpy.data.materials),
+            "view": scene.view_settings.view_transform,
+            "compositor": (tree.name, sorted(n.name for n in tree.nodes)) if tree else None,
+            "keys": sorted(k for k in scene.keys() if k.startswith("ols_"))}
+
+
+@pytest.mark.parametrize("damage", ["zero scale", "NaN rotation"])
+def test_a_broken_sun_fails_setup_with_its_name_and_changes_nothing(addon, damage, capfd):
+    """Issue 9, item 5: "cannot convert float NaN to integer" and a half-wired scene before."""
+    bpy.ops.wm.read_factory_settings()                        # the default cube, camera and light
+    scene = bpy.context.scene
+    bpy.ops.object.light_add(type="SUN")
+    sun = bpy.context.active_object
+    sun.name = "Broken Sun"
+    if damage == "zero scale":
+        sun.scale = (0.0, 0.0, 0.0)
+    else:
+        sun.rotation_euler = (float("nan"), 0.0, 0.0)
+    bpy.context.view_layer.update()
+    before = scene_state(scene)
+    with pytest.raises(RuntimeError, match="Sun lamp 'Broken Sun' has a zero scale or a non-finite rotation"):
+        bpy.ops.ols.setup_scene(resolution="draft")
+    assert scene_state(scene) == before
+    scene.frame_set(2)                                        # handlers run: no traceback
+    assert "Traceback" not in capfd.readouterr().err
+
+
+def test_setup_scene_twice_adds_nothing(addon):
+    bpy.ops.wm.read_factory_settings()
+    scene = bpy.context.scene
+    bpy.data.objects["Cube"].select_set(True)
+    bpy.ops.ols.setup_scene(resolution="draft")
+    once = scene_state(scene)
+    bpy.ops.ols.setup_scene(resolution="draft")
+    assert scene_state(scene) == once
+    assert [m.name for m in bpy.data.materials if m.name.startswith("OLS Terrain")] == ["OLS Terrain Cube"]

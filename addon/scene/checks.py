@@ -6,6 +6,7 @@ from __future__ import annotations
 import bpy
 from mathutils import Vector
 
+from .. import props
 from . import epipolar_tables
 
 PASSES = (("use_pass_position", "Position"), ("use_pass_z", "Depth"))
@@ -52,7 +53,7 @@ def render_problems(scene, depsgraph=None) -> list:
     if missing:
         problems.append(f"the view layer lacks the {' and '.join(missing)} pass(es) the scattering pass reads; "
                         "run Set Up Scene again or enable them in View Layer > Passes")
-    fallback = epipolar_tables.too_large(scene.ols)
+    fallback = epipolar_tables.too_large(props.Sanitized(scene.ols))
     if fallback:
         problems.append(fallback)
     return problems

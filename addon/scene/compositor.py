@@ -196,8 +196,8 @@ def sync_settings(scene):
     node = tree.nodes.get(NODE_NAME) if tree is not None else None
     if node is None or node.node_tree is None:
         return
-    settings = scene.ols
-    safe = functools.partial(props.safe_value, settings)
+    settings = props.Sanitized(scene.ols)
+    safe = functools.partial(props.safe_value, scene.ols)
     _set_inputs(node, {"Middle Gray": safe("middle_gray"), "White Point": safe("white_point"),
                        "Luminance Saturation": safe("luminance_saturation"),
                        "Auto Exposure": float(settings.auto_exposure),

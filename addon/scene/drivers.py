@@ -6,7 +6,7 @@ Python Scripts"). Note: RNA paths index matrices column first: matrix_world[c][r
 from __future__ import annotations
 
 
-def _drive(socket, index, target_id, data_path, id_type=None):
+def _drive(socket, index, target_id, data_path, id_type=None, expression="v"):
     curve = socket.driver_add("default_value", index) if index is not None else socket.driver_add("default_value")
     driver = curve.driver
     driver.type = "SCRIPTED"
@@ -17,7 +17,7 @@ def _drive(socket, index, target_id, data_path, id_type=None):
         variable.targets[0].id_type = id_type
     variable.targets[0].id = target_id
     variable.targets[0].data_path = data_path
-    driver.expression = "v"
+    driver.expression = expression
     return curve
 
 
@@ -37,7 +37,11 @@ def drive_camera_height(socket, scene):
 
 
 def drive_scene_setting(socket, scene, name: str):
-    _drive(socket, None, scene, f"ols.{name}", id_type="SCENE")
+    """The control's value as props.safe_value reads it: NaN (v != v) gives the default, and a
+    value past the control's range (an ID-property write) is clamped into it."""
+    prop = scene.ols.bl_rna.properties[name]
+    expression = f"min(max(v, {prop.hard_min!r}), {prop.hard_max!r}) if v == v else {prop.default!r}"
+    _drive(socket, None, scene, f"ols.{name}", id_type="SCENE", expression=expression)
 
 
 def remove_drivers(tree):

@@ -6,7 +6,7 @@ import bpy
 import numpy as np
 
 from ...lut_gen import epipolar
-from .. import nodes
+from .. import nodes, props
 from . import luts
 
 LIT_IMAGE = nodes.epipolar.LIT_IMAGE
@@ -49,9 +49,9 @@ def ensure_images(layout):
             continue
         image = bpy.data.images.get(name)
         if name == SAMPLING_IMAGE:          # any size: written at the render's each frame
-            images.append(image or write_image(name, np.zeros((1, 1, 4), dtype=np.float32)))
+            images.append(image or luts.write_data_image(name, np.zeros((1, 1, 4), dtype=np.float32)))
         elif image is None or tuple(image.size) != (width, height):
-            images.append(write_image(name, np.zeros((height, width, 4), dtype=np.float32)))
+            images.append(luts.write_data_image(name, np.zeros((height, width, 4), dtype=np.float32)))
         else:
             images.append(image)
     return tuple(images)
@@ -70,7 +70,7 @@ def images_intact(layout) -> bool:
 def update(scene, camera, sun_direction, cascades, luts_object=None) -> dict:
     """Build the frame's tables, write them into the images; the "OLS Frame Values" rows.
     ``luts_object`` (lut_gen.Luts) only for the INTEGRATION mode."""
-    settings = scene.ols
+    settings = props.Sanitized(scene.ols)
     percent = scene.render.resolution_percentage / 100.0
     width = max(int(scene.render.resolution_x * percent), 1)
     height = max(int(scene.render.resolution_y * percent), 1)
@@ -81,30 +81,13 @@ def update(scene, camera, sun_direction, cascades, luts_object=None) -> dict:
                                    settings.best_cascade_search, settings.first_cascade_to_ray_march,
                                    luts_object, integrate)
     lit, integral = nodes.epipolar.pack(tables)
-    write_image(LIT_IMAGE, lit)
+    luts.write_data_image(LIT_IMAGE, lit)
     if integral is not None:
-        write_image(INTEGRAL_IMAGE, integral)
+        luts.write_data_image(INTEGRAL_IMAGE, integral)
     overlay = np.zeros((1, 1, 4), dtype=np.float32)
     if settings.show_sampling:
         dots = epipolar.sampling_overlay(frame, tables.marched, camera, width, height)
         overlay = np.zeros((height, width, 4), dtype=np.float32)
         overlay[..., 0] = dots
-    write_image(SAMPLING_IMAGE, overlay)
+    luts.write_data_image(SAMPLING_IMAGE, overlay)
     return frame.as_values()
-
-
-def write_image(name, pixels):
-    """luts.write_data_image, but an image of another size is made anew (Image.scale left a
-    table image's pixel count stale in a render, bpy 5.0.1) and the light-shaft group's image
-    nodes are pointed at the new one (a group being rebuilt gets it anyway)."""
-    image = bpy.data.images.get(name)
-    height, width = pixels.shape[:2]
-    if image is not None and tuple(image.size) != (width, height):
-        bpy.data.images.remove(image)
-        image = luts.write_data_image(name, pixels)
-        group = bpy.data.node_groups.get(nodes.LIGHT_SHAFTS_GROUP)
-        for node in (group.nodes if group is not None else ()):
-            if node.bl_idname == "CompositorNodeImage" and node.image is None:
-                node.image = image
-        return image
-    return luts.write_data_image(name, pixels)

@@ -54,7 +54,7 @@ def write_frame_values(scene, depsgraph=None, cascades=None, extra=None):
 def _frame_key(scene, depsgraph):
     camera = scene.camera.evaluated_get(depsgraph) if scene.camera is not None else None
     sun, strength = shadow_maps.sun_state(scene, depsgraph)
-    settings = scene.ols
+    settings = props.Sanitized(scene.ols)
     return (scene.frame_current, tuple(map(tuple, camera.matrix_world)) if camera else None,
             tuple(camera.data.view_frame(scene=scene)[0]) if camera else None, tuple(sun), strength,
             settings.shadow_map_resolution, settings.num_cascades, settings.cascade_partitioning_factor,
@@ -118,7 +118,8 @@ def forget():
 def pass_settings(scene, sun_strength: float):
     """scene.ols as the twin's PassSettings (lut_gen.scattering_pass)."""
     fields = scattering_pass.PassSettings.__dataclass_fields__
-    values = {name: props.safe_value(scene.ols, name) for name in fields if hasattr(scene.ols, name)}
+    settings = props.Sanitized(scene.ols)
+    values = {name: getattr(settings, name) for name in fields if hasattr(scene.ols, name)}
     return scattering_pass.PassSettings(**values, sun_strength=sun_strength)
 
 

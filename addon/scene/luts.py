@@ -86,16 +86,29 @@ def release_unused_images():
             bpy.data.images.remove(image)
 
 
+def _image_nodes(image):
+    trees = list(bpy.data.node_groups)
+    trees += [owner.node_tree for owner in (*bpy.data.materials, *bpy.data.worlds) if owner.node_tree]
+    return [node for tree in trees for node in tree.nodes if getattr(node, "image", None) == image]
+
+
 def write_data_image(name: str, pixels):
     """Write (height, width, 4) float pixels (rows bottom to top) into the float image ``name``,
     created or resized as needed, holding raw numbers (no colour management)."""
     import numpy as np
     height, width = pixels.shape[:2]
     image = bpy.data.images.get(name)
+    users = []
+    if image is not None and tuple(image.size) != (width, height):
+        # Made anew: Image.scale left the pixel count stale (bpy 5.0.1: "expected sequence size
+        # ..." on the next write, and in renders). The image nodes that showed it get the new one.
+        users = _image_nodes(image)
+        bpy.data.images.remove(image)
+        image = None
     if image is None:
         image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True, is_data=True)
-    elif tuple(image.size) != (width, height):
-        image.scale(width, height)
+        for node in users:
+            node.image = image
     # Before writing: changing the colour space afterwards regenerates the buffer.
     image.colorspace_settings.is_data = True
     image.alpha_mode = "NONE"

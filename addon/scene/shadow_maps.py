@@ -12,6 +12,7 @@ import bpy
 import numpy as np
 
 from ...lut_gen import scattering_pass, shadow_map
+from .. import props
 from . import luts, sun as sun_lamps
 
 ATLAS_IMAGE = "OLS Shadow Map"
@@ -90,7 +91,7 @@ def sun_state(scene, depsgraph=None):
 
 def render(scene, depsgraph) -> shadow_map.ShadowCascades:
     """Render the cascades for the scene's camera, sun and settings as evaluated in ``depsgraph``."""
-    settings = scene.ols
+    settings = props.Sanitized(scene.ols)
     sun_direction, _ = sun_state(scene, depsgraph)
     resolution = int(settings.shadow_map_resolution)
     if resolution < 16:

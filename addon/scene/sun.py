@@ -62,7 +62,15 @@ def direction_to_sun(sun) -> np.ndarray:
     if sun.parent is not None:
         matrix = sun.parent.matrix_world @ sun.matrix_parent_inverse @ matrix
     direction = np.array(matrix.to_3x3().col[2], dtype=np.float64)
-    return direction / np.linalg.norm(direction)
+    norm = np.linalg.norm(direction)
+    if not np.isfinite(norm) or norm < 1e-9:
+        raise SunError(f"the Sun lamp {sun.name!r} has a zero scale or a non-finite rotation, so it points "
+                       "nowhere: clear its rotation and scale (Object > Clear > Rotation, Scale) or set them again")
+    return direction / norm
+
+
+class SunError(ValueError):
+    """A Sun lamp whose direction is undefined."""
 
 
 class OriginTransmittance:

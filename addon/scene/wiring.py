@@ -11,7 +11,7 @@ from pathlib import Path
 import bpy
 
 from ... import lut_gen
-from .. import nodes
+from .. import nodes, props
 from ...lut_gen.sampling import TABLES_WITH_MIE
 from . import compositor, drivers, epipolar_tables, frame_update, luts, shadow_maps, skylight, sun as sun_lamps
 
@@ -59,7 +59,7 @@ def build_groups(bake_dir, engine="CYCLES"):
 
 def build_light_shafts(scene, optical_image, params):
     """(Re)build the light-shaft groups for the scene's structural settings (ShaftLayout)."""
-    settings = scene.ols
+    settings = props.Sanitized(scene.ols)
     atlas, table = shadow_maps.ensure_images(int(settings.shadow_map_resolution), settings.num_cascades)
     layout = nodes.ShaftLayout.from_settings(settings, epipolar_tables.technique(settings))
     nodes.build_light_shaft_groups(optical_image, atlas, table, params, layout,
@@ -74,7 +74,8 @@ def match_light_shaft_layout(scene) -> bool:
     info = bake_info(scene)
     if group is None or info is None:
         return False
-    layout = nodes.ShaftLayout.from_settings(scene.ols, epipolar_tables.technique(scene.ols))
+    settings = props.Sanitized(scene.ols)
+    layout = nodes.ShaftLayout.from_settings(settings, epipolar_tables.technique(settings))
     if (group.get("ols_layout") == layout.as_key() and epipolar_tables.images_intact(layout)
             and shadow_maps.images_intact(bpy.data.node_groups.get(nodes.SHADOW_TEST_GROUP))):
         return False
@@ -143,7 +144,10 @@ def wire_world(scene, sun, light_scene: float):
 def wire_terrain(obj, sun):
     """Give ``obj`` an "OLS Terrain" material that keeps the albedo of its old material."""
     previous = obj.active_material
-    material = bpy.data.materials.new(f"{TERRAIN_MATERIAL} {obj.name}")
+    if previous is not None and previous.get(GENERATED):
+        material = previous             # set up again: rebuild ours, no "OLS Terrain X.001"
+    else:
+        material = bpy.data.materials.new(f"{TERRAIN_MATERIAL} {obj.name}")
     material.use_nodes = True
     group = _group_into_output(material.node_tree, nodes.TERRAIN_GROUP, "ShaderNodeOutputMaterial", "Shader")
     group.inputs["Albedo"].default_value = _albedo_of(previous)
@@ -165,8 +169,26 @@ def wire_scene(scene, bake_dir, terrain_objects=(), sun=None, resolution="defaul
     """Everything ``Set up scene`` does, for a bake directory that already holds the tables.
     Returns the sun lamp used."""
     check_scene(scene)
+    sun = sun or sun_lamps.find_sun(scene)
+    if sun is not None:
+        try:
+            sun_lamps.direction_to_sun(sun)
+        except sun_lamps.SunError as exc:
+            raise SetupError(str(exc)) from None
     images, params = build_groups(bake_dir, scene.render.engine)   # may raise: scene untouched so far
-    sun = sun or sun_lamps.find_sun(scene) or sun_lamps.create_sun(scene)
+    was_wired = bool(scene.get(WIRED_KEY))
+    try:
+        return _wire_checked(scene, bake_dir, images, params, terrain_objects, sun, resolution)
+    except Exception:
+        # Nothing half-applied: put back what the scene had (world, materials, compositor, view).
+        if not was_wired:
+            unwire_scene(scene)
+        luts.release_unused_images()
+        raise
+
+
+def _wire_checked(scene, bake_dir, images, params, terrain_objects, sun, resolution):
+    sun = sun or sun_lamps.create_sun(scene)
     terrain_objects = [o for o in terrain_objects if o.type == "MESH"]
     # With terrain materials the sky lights the scene through their ambient term (the sample's
     # model); the world then lights only camera and glossy rays, so nothing counts twice.
