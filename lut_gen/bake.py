@@ -114,8 +114,28 @@ def resolve_resolution(resolution: Union[str, Sequence[int], Resolution]) -> Res
     if n_h < 2 or n_s < 2 or n_t < 2 or n_a < 4 or n_a % 2:
         raise ValueError("resolution needs >= 2 nodes per axis and an even view axis >= 4, "
                          f"got {resolution!r}")
+    _check_memory(dims)
     return Resolution(tuple(int(n) for n in dims), RESOLUTIONS["default"].optical_depth,
                       RESOLUTIONS["default"].ambient)
+
+
+# Bytes per texel of the 4D tables at the bake's peak: Rayleigh and Mie single scattering at
+# every wavelength of the bake (2 x 12 float32) plus the four RGB tables kept (4 x 3 float32).
+BYTES_PER_TEXEL = 4 * (2 * 12 + 4 * 3)
+
+
+def _check_memory(dims):
+    """Refuse, before any work, a resolution whose tables cannot fit in this machine's memory
+    (a MemoryError came after a whole stage otherwise)."""
+    need = int(np.prod([int(n) for n in dims], dtype=np.float64)) * BYTES_PER_TEXEL
+    try:
+        have = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return
+    if need > 0.8 * have:
+        size = "x".join(str(int(n)) for n in dims)
+        raise ValueError(f"resolution {size} needs about {need / 2**30:.1f} GiB for its tables; this machine has "
+                         f"{have / 2**30:.1f} GiB: choose smaller tables (the default is 32x128x64x16)")
 
 
 def higher_order_dims(dims):

@@ -130,6 +130,7 @@ def path_argument(text: str) -> Path:
     return Path(text)
 
 
+MAX_PASS_STEPS = 256
 TECHNIQUES = {"epipolar": "EPIPOLAR_SAMPLING", "brute-force": "BRUTE_FORCE"}
 
 
@@ -182,8 +183,9 @@ def cmd_pass(args) -> int:
                  "multiple_scattering_mode": args.multiple, "enable_light_shafts": False if args.no_shafts else None,
                  "scattering_technique": TECHNIQUES.get(args.technique)}
     settings = dataclasses.replace(settings, **{k: v for k, v in overrides.items() if v is not None})
-    if settings.num_integration_steps < 1:
-        raise ValueError(f"--steps must be at least 1, got {settings.num_integration_steps}")
+    if not 1 <= settings.num_integration_steps <= MAX_PASS_STEPS:
+        # Memory grows as width x height x steps; the panel allows 5-100.
+        raise ValueError(f"--steps must be from 1 to {MAX_PASS_STEPS}, got {settings.num_integration_steps}")
     start = time.perf_counter()
     radiance = scattering_pass(load(args.luts), passes["image"], passes["position"], passes["depth"],
                                camera, sun, cascades, settings)

@@ -200,7 +200,7 @@ def read_header_params(directory):
     try:
         params = AtmosphereParams.from_dict(json.loads(header[PREFIX + "params"])).validate()
         return params, tuple(json.loads(header[PREFIX + "dims"]))
-    except (KeyError, ValueError, TypeError) as exc:
+    except (KeyError, ValueError, TypeError, RecursionError) as exc:
         raise LutError(f"{directory} has an invalid header ({exc}); re-bake it") from exc
 
 
@@ -245,7 +245,8 @@ def _write_tables(OpenEXR, directory: Path, key: str, luts: Luts):
         for tmp, final in staged:
             os.replace(tmp, final)
         manifest.write(directory, key, FILES.values())
-    except (OSError, manifest.ManifestError) as exc:
+    except (OSError, RuntimeError, manifest.ManifestError) as exc:
+        # OpenEXR reports a full disk as a RuntimeError. The old bake stays: nothing was renamed.
         raise LutError(f"cannot write tables to {directory}: {exc}") from exc
     finally:
         for tmp, _ in staged:
@@ -384,7 +385,7 @@ def load(directory, *, params: Optional[AtmosphereParams] = None) -> Luts:
                     optical_depth=np.ascontiguousarray(images["optical_depth"].transpose(1, 0, 2)),
                     ambient=np.ascontiguousarray(images["ambient"][0]),
                     orders=orders)
-    except (KeyError, ValueError, TypeError) as exc:
+    except (KeyError, ValueError, TypeError, RecursionError) as exc:
         raise LutError(f"{directory} has an invalid header ({exc}); re-bake it") from exc
     problem = luts.value_problem()
     if problem:

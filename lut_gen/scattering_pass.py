@@ -194,6 +194,12 @@ def load_inputs(path):
                             float(data["clip_end"]))
             cascades = ShadowCascades(data["frame"], data["centers"], data["halves"], data["far_depths"], data["depths"])
             settings = PassSettings(**json.loads(str(data["settings"])))
-            return camera, data["sun_direction"], cascades, settings
-    except (OSError, KeyError, ValueError, TypeError) as exc:
+            sun = data["sun_direction"]
+    except (OSError, KeyError, ValueError, TypeError, RecursionError) as exc:
         raise ValueError(f"{path}: not a pass-inputs file saved by the add-on ({exc})") from None
+    for name, value in (("camera position", camera.position), ("camera rotation", camera.rotation),
+                        ("field of view", camera.tan_half_fov),
+                        ("sun direction", sun), ("shadow cascades", cascades.depths)):
+        if not np.all(np.isfinite(np.asarray(value, dtype=np.float64))):
+            raise ValueError(f"{path}: the {name} holds NaN or infinite values; export the inputs again")
+    return camera, sun, cascades, settings

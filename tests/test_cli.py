@@ -98,6 +98,12 @@ def test_corrupt_bake_dir_is_reported(tmp_path):
     assert {p.name: p.read_bytes() for p in (tmp_path / "l").iterdir()} == before
 
 
+def test_a_resolution_too_large_for_memory_is_refused_before_baking(tmp_path):
+    result = run("bake", "--out", str(tmp_path / "l"), "--resolution", "99998x99998x99998x99998")
+    assert result.returncode == 1 and "GiB" in result.stderr and "choose smaller tables" in result.stderr
+    assert result.stderr.strip().count("\n") == 0 and not (tmp_path / "l").exists()
+
+
 def test_bad_resolution_is_a_usage_error(tmp_path):
     result = run("bake", "--out", str(tmp_path / "l"), "--resolution", "huge")
     assert result.returncode == 2 and "resolution must be" in result.stderr

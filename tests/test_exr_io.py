@@ -116,6 +116,17 @@ def test_files_of_different_bakes_are_refused(saved, tmp_path):
         lut_gen.load(saved)
 
 
+def test_a_hostile_header_is_an_error_not_a_crash(saved):
+    """100 000 nested brackets in ols.params gave a RecursionError (issue 9, item 9)."""
+    for name in FILES.values():
+        rewrite(saved / name, change_header=lambda h: h.update({"ols.params": "[" * 100_000}))
+    reseal(saved)
+    with pytest.raises(LutError, match="invalid header|not a readable EXR file"):
+        lut_gen.load(saved)
+    with pytest.raises(LutError, match="invalid header|not a readable EXR file"):
+        lut_gen.exr_io.read_header_params(saved)
+
+
 def test_damaged_pixels_fail_the_content_hash(saved):
     def damage(pixels):
         pixels[0, 0, 0] += 1.0

@@ -127,6 +127,16 @@ def test_every_scattering_mode_matches_the_twin_and_shafts_show(addon_package, t
         assert cli.main(["pass", "--luts", str(luts_dir), "--passes", str(tmp_path / "passes.exr"), "--technique",
                          "brute-force", "--inputs", str(tmp_path / "inputs.npz"), "--out", str(tmp_path / "bf.exr")]) == 0
         np.testing.assert_allclose(read_exr(tmp_path / "bf.exr")[::-1], brute, rtol=1e-5, atol=1e-7)
+        # Hostile input gets one line and status 1, before any work (issue 9, items 9 and 11).
+        common = ["pass", "--luts", str(luts_dir), "--passes", str(tmp_path / "passes.exr"), "--out",
+                  str(tmp_path / "bad.exr")]
+        assert cli.main([*common, "--inputs", str(tmp_path / "inputs.npz"), "--steps", "1000000"]) == 1
+        with np.load(tmp_path / "inputs.npz") as data:
+            fields = dict(data)
+        fields["camera_position"] = np.array([np.nan, 0.0, 2.0])
+        np.savez(tmp_path / "nan_inputs.npz", **fields)
+        assert cli.main([*common, "--inputs", str(tmp_path / "nan_inputs.npz")]) == 1
+        assert not (tmp_path / "bad.exr").exists()
     # Light shafts are present: the ridge's shadow takes light out of the air over the valley
     # and in the sky around the sun, unevenly across the columns of the image.
     darker = shadow_effect.sum(axis=-1)
