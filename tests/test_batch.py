@@ -87,6 +87,10 @@ def test_wired_blend_with_damaged_tables_is_repaired_before_it_renders(batch, wi
     with exit 0. Now the file load finds the damage, bakes again, and the render is right."""
     blend, directory = wired_blend
     assert batch.main(render_args(blend, tmp_path / "good.png")) == 0
+    # After a render the adaptation read-back node holds no absolute temporary path and is muted,
+    # so a .blend saved now writes nothing when rendered without the add-on (issue 9, item 8).
+    output = bpy.context.scene.compositing_node_group.nodes["OLS Adapted Luminance"]
+    assert output.mute and output.directory == ""
     good = bpy.data.images.load(str(tmp_path / "good.png"))
     want = np.array(good.pixels[:])
     path = directory / "optical_depth.exr"

@@ -81,9 +81,18 @@ def ensure_output_node(tree, tone_node):
         node.format.color_mode = "BW"
         node.file_name = OUTPUT_FILE
         node.file_output_items.new("FLOAT", "")
+        _park(node)
     if not node.inputs[0].is_linked:
         tree.links.new(tone_node.outputs["Adapted Luminance"], node.inputs[0])
     return node
+
+
+def _park(node):
+    """Outside our renders the node is muted and holds no folder, so a saved .blend carries no
+    absolute temporary path, and rendered without the add-on it writes nothing anywhere (it
+    wrote into the shared temporary folder, following any symlink planted there)."""
+    node.mute = True
+    node.directory = ""
 
 
 def remove_output_node(tree):
@@ -162,14 +171,17 @@ def begin_render(scene):
     _clear_files(directory)
     if output.directory != directory:
         output.directory = directory
+    output.mute = False
     push_inputs(scene, scene.frame_start)
 
 
 def end_render(scene):
     """Back to no adaptation, so the viewport compositor and a saved file show the plain frame."""
-    tone, _ = _nodes(scene)
+    tone, output = _nodes(scene)
     if tone is not None:
         _set(tone, twin.FIXED_AVERAGE_LUMINANCE, 1.0)
+    if output is not None:
+        _park(output)
 
 
 @persistent
