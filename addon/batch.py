@@ -10,6 +10,7 @@ Exit status 0 on success; 1 with one "error: ..." line on stderr for anything wr
 from __future__ import annotations
 
 import argparse
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -29,6 +30,26 @@ class BatchError(Exception):
     pass
 
 
+def _positive_int(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _finite_float(text):
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return value
+
+
 def parse_args(argv):
     parser = argparse.ArgumentParser(prog="render.py", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -36,9 +57,9 @@ def parse_args(argv):
     parser.add_argument("--sample", action="store_true", help="build the sample terrain scene first")
     parser.add_argument("--engine", choices=sorted(ENGINES), default="CYCLES")
     parser.add_argument("--resolution", default=None, help="WIDTHxHEIGHT (default: the scene's)")
-    parser.add_argument("--samples", type=int, default=None, help="render samples (default: the scene's)")
-    parser.add_argument("--sun-elevation", type=float, default=None, help="degrees above the horizon")
-    parser.add_argument("--sun-azimuth", type=float, default=None, help="degrees from +Y toward +X")
+    parser.add_argument("--samples", type=_positive_int, default=None, help="render samples (default: the scene's)")
+    parser.add_argument("--sun-elevation", type=_finite_float, default=None, help="degrees above the horizon")
+    parser.add_argument("--sun-azimuth", type=_finite_float, default=None, help="degrees from +Y toward +X")
     parser.add_argument("--output", type=Path, required=True,
                         help="image path; with --frames, '#' characters are replaced by the frame")
     parser.add_argument("--frames", default=None, help="START-END: render an animation's frames")
@@ -88,6 +109,8 @@ def apply_options(scene, args):
             width, height = (int(v) for v in args.resolution.lower().split("x"))
         except ValueError:
             raise BatchError(f"--resolution must be WIDTHxHEIGHT, got {args.resolution!r}") from None
+        if not (4 <= width <= 65536 and 4 <= height <= 65536):
+            raise BatchError(f"--resolution must be from 4x4 to 65536x65536 pixels, got {args.resolution!r}")
         scene.render.resolution_x, scene.render.resolution_y = width, height
         scene.render.resolution_percentage = 100
     if args.samples is not None:
@@ -98,7 +121,6 @@ def apply_options(scene, args):
     sun = sun_lamps.find_sun(scene)
     if args.sun_elevation is not None or args.sun_azimuth is not None:
         direction = sun_lamps.direction_to_sun(sun)
-        import math
         elevation = math.degrees(math.asin(max(-1.0, min(1.0, direction[2]))))
         azimuth = math.degrees(math.atan2(direction[0], direction[1]))
         sun_lamps.set_sun_angles(sun, args.sun_elevation if args.sun_elevation is not None else elevation,
@@ -123,6 +145,8 @@ def render(scene, args):
             start, end = (int(v) for v in args.frames.split("-"))
         except ValueError:
             raise BatchError(f"--frames must be START-END, got {args.frames!r}") from None
+        if start > end:
+            raise BatchError(f"--frames must run forward (START <= END), got {args.frames!r}")
         scene.frame_start, scene.frame_end = start, end
         scene.render.filepath = str(output)
         bpy.ops.render.render(animation=True)

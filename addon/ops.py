@@ -165,6 +165,20 @@ class OLS_OT_setup_scene(bpy.types.Operator):
         return self.execute(context)
 
 
+def render_path(filepath: str) -> Path:
+    """Where the Render operator writes ``filepath``: a path relative to the .blend ("//...") of
+    an unsaved file goes to the system's temporary folder (it has no folder to resolve to); a
+    folder is refused."""
+    if not filepath.strip():
+        raise ValueError("The file path is empty: give a file name such as //render.png")
+    if filepath.endswith(("/", "\\")) or Path(bpy.path.abspath(filepath)).is_dir():
+        raise ValueError(f"{filepath} is a folder: give a file name in it, such as {filepath.rstrip('/')}/render.png")
+    if filepath.startswith("//") and not bpy.data.filepath:
+        import tempfile
+        return Path(tempfile.gettempdir()) / filepath[2:]
+    return Path(bpy.path.abspath(filepath))
+
+
 class OLS_OT_render(bpy.types.Operator):
     """Render the scene camera to an image file"""
     bl_idname = "ols.render"
@@ -186,7 +200,11 @@ class OLS_OT_render(bpy.types.Operator):
             except lut_gen.LutError as exc:
                 self.report({"ERROR"}, f"Not rendering: {exc}")
                 return {"CANCELLED"}
-        path = Path(bpy.path.abspath(self.filepath))
+        try:
+            path = render_path(self.filepath)
+        except ValueError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             with open(path.parent / f".{path.name}.probe", "wb"):

@@ -20,7 +20,8 @@ def atomic_path(path, mode=None):
     """Yield a temporary path beside ``path`` to write; on success it becomes ``path`` (with
     ``mode``, default: as a new file would get), on failure it is removed."""
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    # ".<name>.XXXXXXXX.tmp" must fit the file system's 255-byte names too: long names are cut.
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name[:200]}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
     try:
         yield tmp

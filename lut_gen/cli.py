@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import os
+import tempfile
 import sys
 import time
 from pathlib import Path
@@ -123,6 +125,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def check_writable(path: Path):
+    """Fail at once, naming ``path``, when it cannot be written (not after a long computation,
+    naming a temporary file)."""
+    if path.is_dir():
+        raise ValueError(f"--out {path} is a folder; give a file name")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".ols_probe.", dir=path.parent)
+        os.close(fd)
+        os.unlink(probe)
+        if len(os.fsencode(path.name)) > 255:
+            raise OSError(36, "File name too long")
+    except OSError as exc:
+        raise ValueError(f"cannot write {path}: {exc.strerror or exc}") from None
+
+
 def path_argument(text: str) -> Path:
     """A path option: an empty one is an error (Path("") would mean the current directory)."""
     if not text.strip():
@@ -177,6 +195,7 @@ def cmd_pass(args) -> int:
     from .exr_io import write_rgb
     from .scattering_pass import load_inputs, load_render_passes, scattering_pass
 
+    check_writable(args.out)            # before the work, naming the file asked for
     passes = load_render_passes(args.passes)
     camera, sun, cascades, settings = load_inputs(args.inputs)
     overrides = {"num_integration_steps": args.steps, "single_scattering_mode": args.single,

@@ -165,6 +165,10 @@ def load_render_passes(path) -> dict:
     if missing:
         raise ValueError(f"{path}: missing render passes {', '.join(missing)}; enable them in the "
                          "view layer's Passes panel and save as OpenEXR MultiLayer")
+    sizes = {key: value.shape[:2] for key, value in result.items()}
+    if len(set(sizes.values())) != 1:
+        raise ValueError(f"{path}: its passes differ in size ({', '.join(f'{k} {w}x{h}' for k, (h, w) in sizes.items())}); "
+                         "save them from one render")
     return result
 
 

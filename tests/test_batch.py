@@ -129,6 +129,25 @@ def test_render_operator_refuses_damaged_tables(wired_blend, tmp_path, addon_pac
     assert not out.exists()
 
 
+@pytest.mark.parametrize("args, message", [
+    (["--resolution=-64x36"], "--resolution must be from 4x4"),
+    (["--resolution", "0x0"], "--resolution must be from 4x4"),
+    (["--frames", "5-1"], "--frames must run forward"),
+])
+def test_bad_render_options_are_refused(batch, tmp_path, capsys, args, message):
+    out = tmp_path / "f.png"
+    assert batch.main(["--sample", "--tables", "draft", "--samples", "1", "--output", str(out), *args]) == 1
+    assert message in error_line(capsys)
+    assert not list(tmp_path.glob("f*"))
+
+
+@pytest.mark.parametrize("args", [["--samples", "-1"], ["--sun-elevation", "nan"], ["--sun-azimuth", "inf"]])
+def test_bad_numbers_are_usage_errors(batch, tmp_path, args):
+    with pytest.raises(SystemExit) as exit_info:
+        batch.parse_args(["--sample", "--output", str(tmp_path / "o.png"), *args])
+    assert exit_info.value.code == 2
+
+
 def test_unwritable_output(batch, tmp_path, capsys):
     (tmp_path / "file").write_text("x")
     assert batch.main(["--sample", "--tables", "draft", "--output", str(tmp_path / "file" / "o.png")]) == 1

@@ -137,6 +137,12 @@ def test_every_scattering_mode_matches_the_twin_and_shafts_show(addon_package, t
         np.savez(tmp_path / "nan_inputs.npz", **fields)
         assert cli.main([*common, "--inputs", str(tmp_path / "nan_inputs.npz")]) == 1
         assert not (tmp_path / "bad.exr").exists()
+        (tmp_path / "file").write_text("x")
+        unwritable = tmp_path / "file" / "out.exr"
+        assert cli.main([*common[:-1], str(unwritable), "--inputs", str(tmp_path / "inputs.npz")]) == 1
+        long_name = tmp_path / ("n" * 241 + ".exr")             # 245 characters: the temporary name fits
+        assert cli.main([*common[:-1], str(long_name), "--inputs", str(tmp_path / "inputs.npz")]) == 0
+        assert long_name.exists()
     # Light shafts are present: the ridge's shadow takes light out of the air over the valley
     # and in the sky around the sun, unevenly across the columns of the image.
     darker = shadow_effect.sum(axis=-1)

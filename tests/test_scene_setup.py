@@ -305,3 +305,22 @@ def test_setup_scene_twice_adds_nothing(addon):
     bpy.ops.ols.setup_scene(resolution="draft")
     assert scene_state(scene) == once
     assert [m.name for m in bpy.data.materials if m.name.startswith("OLS Terrain")] == ["OLS Terrain Cube"]
+
+
+def test_render_operator_paths(addon, tmp_path):
+    """A folder is refused, not written as "DIR.png"; an unsaved file's "//" default goes to the
+    system's temporary folder instead of failing after the render (issues 9 and 11)."""
+    import tempfile
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    camera = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    module(addon, "addon.scene.sun").create_sun(scene)
+    for folder in (str(tmp_path) + "/", str(tmp_path)):
+        with pytest.raises(RuntimeError, match="is a folder"):
+            bpy.ops.ols.render(filepath=folder)
+    assert not (tmp_path.parent / (tmp_path.name + ".png")).exists()
+    render_path = module(addon, "addon.ops").render_path
+    assert not bpy.data.filepath
+    assert render_path("//ols_render.png") == __import__("pathlib").Path(tempfile.gettempdir()) / "ols_render.png"
