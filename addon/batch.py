@@ -131,10 +131,7 @@ def render(scene, args):
     wiring.match_engine(scene)
     output = args.output.resolve()
     try:
-        output.parent.mkdir(parents=True, exist_ok=True)
-        probe = output.parent / f".{output.name}.probe"
-        probe.write_bytes(b"")
-        probe.unlink()
+        lut_gen.atomic.probe_writable(output)
     except OSError as exc:
         raise BatchError(f"cannot write {output}: {exc.strerror or exc}") from None
     scene.render.image_settings.file_format = "PNG"

@@ -206,10 +206,7 @@ class OLS_OT_render(bpy.types.Operator):
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
         try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            with open(path.parent / f".{path.name}.probe", "wb"):
-                pass
-            (path.parent / f".{path.name}.probe").unlink()
+            lut_gen.atomic.probe_writable(path)
         except OSError as exc:
             self.report({"ERROR"}, f"Cannot write {path}: {exc.strerror or exc}")
             return {"CANCELLED"}

@@ -7,7 +7,7 @@ Update"): pure numpy + OpenEXR, no Blender needed.
     luts = lut_gen.load("luts/")
     luts.sky_radiance(height_m, cos_view_zenith, cos_sun_zenith, cos_sun_view)
 """
-from . import aerial, monte_carlo, reference, scattering_pass, shadow_map, spectrum
+from . import aerial, atomic, monte_carlo, reference, scattering_pass, shadow_map, spectrum
 from .atmosphere import AtmosphereParams, preset
 from .bake import RESOLUTIONS, bake
 from .cache import cached_bake, default_cache_root

@@ -15,6 +15,19 @@ def default_mode() -> int:
     return 0o666 & ~mask
 
 
+def probe_writable(path) -> None:
+    """Raise OSError unless ``path`` can be written: its folder (made if missing) takes a new
+    file, and its name fits the file system. Checked before long work, so that the error comes
+    at once and names the file asked for, not a temporary one."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, probe = tempfile.mkstemp(prefix=".ols_probe.", dir=path.parent)
+    os.close(fd)
+    os.unlink(probe)
+    if len(os.fsencode(path.name)) > 255:
+        raise OSError(36, "File name too long")
+
+
 @contextmanager
 def atomic_path(path, mode=None):
     """Yield a temporary path beside ``path`` to write; on success it becomes ``path`` (with

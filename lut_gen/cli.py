@@ -3,8 +3,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import os
-import tempfile
 import sys
 import time
 from pathlib import Path
@@ -13,6 +11,7 @@ from .atmosphere import PRESETS, AtmosphereParams, preset
 from .bake import RESOLUTIONS, bake
 from .cache import cached_bake, default_cache_root, key_for
 from .aerial import MULTIPLE_MODES, SINGLE_MODES
+from .atomic import probe_writable
 from .exr_io import LutError, check_output_directory, is_intact, load, read_key, removed_if_left_empty, save
 
 EXIT_ERROR = 1
@@ -131,12 +130,7 @@ def check_writable(path: Path):
     if path.is_dir():
         raise ValueError(f"--out {path} is a folder; give a file name")
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, probe = tempfile.mkstemp(prefix=".ols_probe.", dir=path.parent)
-        os.close(fd)
-        os.unlink(probe)
-        if len(os.fsencode(path.name)) > 255:
-            raise OSError(36, "File name too long")
+        probe_writable(path)
     except OSError as exc:
         raise ValueError(f"cannot write {path}: {exc.strerror or exc}") from None
 

@@ -141,13 +141,19 @@ def test_setup_without_camera_changes_nothing(addon):
     assert scene.world is None and len(bpy.data.worlds) == worlds and len(bpy.data.lights) == lights
 
 
-def test_render_operator_reports_bad_paths(addon, tmp_path):
+def camera_and_sun_scene(addon):
+    """An empty scene with a scene camera and a Sun lamp: enough for the Render operator."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     camera = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
     scene.collection.objects.link(camera)
     scene.camera = camera
     module(addon, "addon.scene.sun").create_sun(scene)
+    return scene
+
+
+def test_render_operator_reports_bad_paths(addon, tmp_path):
+    camera_and_sun_scene(addon)
     (tmp_path / "file").write_text("x")
     with pytest.raises(RuntimeError, match="Cannot write"):
         bpy.ops.ols.render(filepath=str(tmp_path / "file" / "out.png"))
@@ -311,12 +317,7 @@ def test_render_operator_paths(addon, tmp_path):
     """A folder is refused, not written as "DIR.png"; an unsaved file's "//" default goes to the
     system's temporary folder instead of failing after the render (issues 9 and 11)."""
     import tempfile
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    camera = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
-    scene.collection.objects.link(camera)
-    scene.camera = camera
-    module(addon, "addon.scene.sun").create_sun(scene)
+    camera_and_sun_scene(addon)
     for folder in (str(tmp_path) + "/", str(tmp_path)):
         with pytest.raises(RuntimeError, match="is a folder"):
             bpy.ops.ols.render(filepath=folder)

@@ -7,8 +7,6 @@ Settings reach the groups' inputs here (sync_settings); per-frame values (camera
 cascades) go through images, see frame_update."""
 from __future__ import annotations
 
-import functools
-
 import bpy
 import numpy as np
 
@@ -197,24 +195,23 @@ def sync_settings(scene):
     if node is None or node.node_tree is None:
         return
     settings = props.Sanitized(scene.ols)
-    safe = functools.partial(props.safe_value, scene.ols)
-    _set_inputs(node, {"Middle Gray": safe("middle_gray"), "White Point": safe("white_point"),
-                       "Luminance Saturation": safe("luminance_saturation"),
+    _set_inputs(node, {"Middle Gray": settings.middle_gray, "White Point": settings.white_point,
+                       "Luminance Saturation": settings.luminance_saturation,
                        "Auto Exposure": float(settings.auto_exposure),
                        "Operator": float(tone_mapping.OPERATORS.index(settings.tone_mapping_operator))})
     aerial = tree.nodes.get(AERIAL_NODE)
     if aerial is None or aerial.node_tree is None:
         return
     _set_inputs(aerial, {"Enable": float(settings.enable_light_scattering),
-                         "Lighting Only": float(settings.lighting_only), "Scattering Scale": safe("scattering_scale")})
+                         "Lighting Only": float(settings.lighting_only), "Scattering Scale": settings.scattering_scale})
     shafts = tree.nodes.get(SHAFTS_NODE)
     if shafts is not None and shafts.node_tree is not None:
         active = settings.enable_light_scattering and settings.enable_light_shafts
         if shafts.mute == active:       # a muted group passes its image through and costs nothing
             shafts.mute = not active
         _set_inputs(shafts, {"Enable": float(settings.enable_light_scattering),
-                             "Scattering Scale": safe("scattering_scale"),
-                             "First Cascade": float(safe("first_cascade_to_ray_march")),
+                             "Scattering Scale": settings.scattering_scale,
+                             "First Cascade": float(settings.first_cascade_to_ray_march),
                              "Show Cascades": float(settings.show_cascades)})
         if "Show Sampling" in shafts.inputs:
             _set_inputs(shafts, {"Show Sampling": float(settings.show_sampling)})

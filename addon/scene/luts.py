@@ -36,6 +36,7 @@ def load_images(directory) -> dict:
     images = {}
     for table, filename in FILES.items():
         path = directory / filename
+        stamp = file_stamp(path)
         name = image_name(table, key)
         image = bpy.data.images.get(name)
         if image is None or bpy.path.abspath(image.filepath) != str(path):
@@ -46,11 +47,11 @@ def load_images(directory) -> dict:
             except RuntimeError as exc:
                 raise LutError(f"{path} cannot be read ({exc}); bake the tables again") from None
             image.name = name
-            image[FILE_STAMP] = file_stamp(path)
-        if image.size[0] == 0 or image.get(FILE_STAMP) != file_stamp(path):
+            image[FILE_STAMP] = stamp
+        if image.size[0] == 0 or image.get(FILE_STAMP) != stamp:
             # The file was missing when the .blend opened, or was re-baked since it was read.
             image.reload()
-            image[FILE_STAMP] = file_stamp(path)
+            image[FILE_STAMP] = stamp
         if image.size[0] == 0 or image.size[1] == 0:    # Blender could not decode it
             bpy.data.images.remove(image)
             raise LutError(f"{path} is damaged (Blender cannot decode it); bake the tables again")
