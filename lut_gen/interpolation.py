@@ -38,9 +38,12 @@ def gather(packed: np.ndarray, width: int, index: np.ndarray) -> np.ndarray:
     return np.take(packed, index.reshape(-1)).view(np.float32).reshape(index.shape + (width,))
 
 
-def interpolate(table: np.ndarray, coords, chunk: int = 1 << 20) -> np.ndarray:
+def interpolate(table: np.ndarray, coords, chunk: int = 1 << 20, geometric_axes=()) -> np.ndarray:
     """Linear interpolation of ``table`` (*axes, C) at texel coordinates ``coords`` (one array per
-    axis, broadcast together). Returns (*broadcast shape, C) float32."""
+    axis, broadcast together). Returns (*broadcast shape, C) float32.
+
+    ``geometric_axes``: axes blended geometrically (geometric_lerp) after the linear blend of the
+    others, i.e. bilinear in log space on those axes."""
     axes = table.shape[:-1]
     if len(coords) != len(axes):
         raise ValueError(f"{len(axes)}D table needs {len(axes)} coordinates, got {len(coords)}")
@@ -54,15 +57,22 @@ def interpolate(table: np.ndarray, coords, chunk: int = 1 << 20) -> np.ndarray:
     for start in range(0, out.shape[0], chunk):
         sl = slice(start, start + chunk)
         lows, weights = zip(*(axis_weights(c[sl], n) for c, n in zip(flat_coords, axes)))
-        acc = np.zeros((lows[0].size, table.shape[-1]), dtype=np.float32)
+        partial = {}                  # linear blends keyed by their corner on the geometric axes
         for corner in itertools.product((0, 1), repeat=len(axes)):
             index = np.zeros(lows[0].size, dtype=np.int64)
             weight = np.ones(lows[0].size, dtype=np.float32)
-            for bit, low, w, stride, n in zip(corner, lows, weights, strides, axes):
+            for axis, (bit, low, w, stride, n) in enumerate(zip(corner, lows, weights, strides, axes)):
                 index += np.minimum(low + bit, n - 1) * stride
-                weight *= w if bit else 1.0 - w
-            acc += weight[:, None] * gather(packed, width, index)[:, :channels]
-        out[sl] = acc
+                if axis not in geometric_axes:
+                    weight *= w if bit else 1.0 - w
+            key = tuple(corner[axis] for axis in geometric_axes)
+            term = weight[:, None] * gather(packed, width, index)[:, :channels]
+            partial[key] = term if key not in partial else partial[key] + term
+        for axis in geometric_axes:   # log-space blending is separable: the order does not matter
+            w = weights[axis][:, None]
+            partial = {key[1:]: geometric_lerp(partial[(0,) + key[1:]], partial[(1,) + key[1:]], w)
+                       for key in partial if key[0] == 0}
+        out[sl] = partial[()]
     return out.reshape(shape + (table.shape[-1],))
 
 

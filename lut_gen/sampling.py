@@ -26,6 +26,13 @@ from . import parameterization as par
 from .atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
 from .interpolation import interpolate
 
+# The 4D tables are blended geometrically along height and sun zenith (lut_gen.interpolation):
+# at twilight and near the ground the radiance changes by a factor per node there, not by a
+# step, and linear blending overshot it (single table vs the spectral reference over 5000 rays:
+# p99 6.6% -> 4.3%, median 0.42% -> 0.27%; the same with 64 sun nodes linear gave p99 5.3%).
+# Where the sky changes slowly both blends agree.
+GEOMETRIC_AXES = (0, 2)
+
 TABLES = ("single", "higher", "multiple")
 TABLES_WITH_MIE = ("single", "multiple")
 # Net density stored where a ray hits the Earth (the sample's convention): any extinction
@@ -127,10 +134,11 @@ class Luts:
         xh, xa, xs, xt, above = par.world_to_x(self.params, self.dims, height_m, cos_view_zenith,
                                                cos_sun_zenith, cos_sun_view, above_horizon)
         coords = (xh, xa, xs, xt)
-        radiance = interpolate(self.table(table), coords) * rayleigh_phase(cos_sun_view)[..., None].astype(np.float32)
+        radiance = (interpolate(self.table(table), coords, geometric_axes=GEOMETRIC_AXES)
+                    * rayleigh_phase(cos_sun_view)[..., None].astype(np.float32))
         if table in TABLES_WITH_MIE:
             phase = mie_phase(cos_sun_view, self.params.mie_g)[..., None].astype(np.float32)
-            radiance += interpolate(self.single_mie, coords) * phase
+            radiance += interpolate(self.single_mie, coords, geometric_axes=GEOMETRIC_AXES) * phase
         scale = par.look_up_scale(self.params, height_m, cos_view_zenith, above)
         return radiance * scale[..., None].astype(np.float32)
 

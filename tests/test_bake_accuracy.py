@@ -73,25 +73,25 @@ def test_single_table_median_error_within_one_percent(single_vs_reference):
     _, groups, err = single_vs_reference
     assert np.median(err) <= 0.01
     # The issue's bar is on the whole set; each group of it is held near it too. Measured
-    # (seeds 11 / 5): short ground rays 0.17% / 0.26%, the midday zenith 0.80% / 0.81%, 5 deg
-    # around the sun 1.07% / 1.19% (the clear day's aerosol puts most of that light in the
-    # interpolated single-Mie table; the sample's cleaner aerosol gave 0.8%).
-    limits = {"downward near the ground": 0.01, "zenith at high sun": 0.01, "5 deg around the sun": 0.015}
+    # (seeds 5, 11, 17, 23, 29): short ground rays 0.16-0.24%, the midday zenith 0.20-0.27%,
+    # 5 deg around the sun 0.41-0.66% (linear blending along height and sun zenith gave 0.26%,
+    # 0.81% and 1.2%).
+    limits = {"downward near the ground": 0.005, "zenith at high sun": 0.005, "5 deg around the sun": 0.01}
     for name, rays in groups.items():
         assert np.median(err[rays]) <= limits[name], name
 
 
 def test_single_table_tail(single_vs_reference):
-    """Issue 8 asks p99 <= 5%. Measured (README; seeds 11 / 5): p95 1.7% / 2.1%, p99 3.6% / 6.6%,
-    0.7% / 1.4% of the rays over 5%,
-    every one of them at twilight (sun zenith > 88 deg), where the radiance falls by orders of
-    magnitude between neighbouring sun-zenith nodes and linear interpolation overshoots. Outside
-    twilight the bar holds."""
+    """Issue 8 asks p99 <= 5%. Measured over 5000 rays (seeds 5, 11, 17, 23, 29): p95 1.5%,
+    p99 4.3% (seed 11 alone: 2.5%). Nearly all the rays over 5% are at twilight (sun zenith
+    > 88 deg), where single scattering falls by orders of magnitude between neighbouring nodes;
+    blending linearly along height and sun zenith gave p99 6.6%, 11.5% on some seeds."""
     rays, _, err = single_vs_reference
+    assert np.percentile(err, 99) <= 0.05
     assert np.percentile(err, 95) <= 0.02
     twilight = np.degrees(np.arccos(rays[2])) > 88.0
-    assert np.percentile(err[~twilight], 99) <= 0.05
-    assert np.mean(err > 0.05) <= 0.02
+    assert np.percentile(err[~twilight], 99) <= 0.03
+    assert np.mean(err > 0.05) <= 0.01
 
 
 def test_table_nodes_match_reference(default_luts):
@@ -138,7 +138,15 @@ def test_multiple_is_at_least_single(default_luts):
     multiple = default_luts.sky_radiance(*rays, table="multiple")
     higher = default_luts.sky_radiance(*rays, table="higher")
     assert np.all(multiple >= single * (1 - 1e-6))
-    np.testing.assert_allclose(multiple, single + higher, rtol=1e-5, atol=1e-12)
+    # Blending geometrically along height and sun zenith (sampling.GEOMETRIC_AXES) is not
+    # additive: by Hoelder's inequality the blend of a sum is at least the sum of the blends.
+    # Measured: median 8e-5, p99 0.4% of the total where it is above 1e-5 (the worst at twilight,
+    # where single scattering vanishes at one node and the higher orders do not).
+    assert np.all(multiple >= (single + higher) * (1 - 1e-5) - 1e-12)
+    lit = multiple.sum(axis=-1) > 1e-5
+    excess = (multiple - single - higher)[lit] / multiple[lit]
+    assert np.median(excess) <= 1e-3
+    assert np.percentile(excess, 99) <= 0.01
 
 
 def zenith_higher_share(luts, sun_elevation_deg):

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import bpy
 
+from ...lut_gen.interpolation import GEOMETRIC_FLOOR
+
 
 class Graph:
     """Wraps a node tree; nodes are laid out left to right in creation order."""
@@ -87,6 +89,13 @@ class Graph:
     def vlerp(self, a, b, t):
         """Component-wise a + (b - a) t; t a scalar socket."""
         return self.vmath("MULTIPLY_ADD", self.vmath("SUBTRACT", b, a), self.combine(t, t, t), a)
+
+    def vgeometric_lerp(self, a, b, t):
+        """Component-wise a^(1-t) b^t with lut_gen.interpolation.geometric_lerp's floor; t a
+        scalar socket."""
+        floor = self.vmath("MAXIMUM", self.vscale(self.vmath("MAXIMUM", a, b), float(GEOMETRIC_FLOOR)), (1e-30,) * 3)
+        low, high = self.vmath("MAXIMUM", a, floor), self.vmath("MAXIMUM", b, floor)
+        return self.vmath("MULTIPLY", low, self.vmath("POWER", self.vmath("DIVIDE", high, low), self.combine(t, t, t)))
 
     def vscale(self, vector, scale):
         node = self.node("ShaderNodeVectorMath", operation="SCALE")

@@ -1,8 +1,9 @@
 """The shared 4D look-up group: seed 000's Listing 1 over our 2D atlas (see lut_gen/atlas.py).
 
 Inputs are world quantities; the group applies eqs. (4)-(7) (Listing 2's horizon split for the
-view zenith), filters the view- and sun-zenith axes in hardware inside a tile and blends the
-four tiles of the neighbouring height and sun-view nodes by hand, then restores the Rayleigh
+view zenith), filters the view-zenith axis in hardware inside a tile, blends the neighbouring
+sun-view nodes linearly and the neighbouring sun-zenith and height nodes geometrically
+(lut_gen.sampling.GEOMETRIC_AXES) by hand, then restores the Rayleigh
 phase the tables are divided by, adds the single Mie table times the exact Mie phase, and
 multiplies ground-hitting rays by their ground-ray scale. Its numpy twin is
 lut_gen.Luts.sky_radiance.
@@ -113,7 +114,7 @@ def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=Fal
     for the tables that include single scattering, None only for "higher" (required: leaving it
     out would silently drop the aureole).
 
-    ``filtering``: "HARDWARE" blends the two in-tile axes with the texture unit (4 fetches;
+    ``filtering``: "HARDWARE" blends the view-zenith axis with the texture unit (8 fetches;
     Cycles, which has no mipmaps). "MANUAL" fetches texel centres with Closest interpolation and
     blends them in the node tree (16 fetches): GPU engines (EEVEE) pick mip levels from
     texture-coordinate derivatives, which are large where eq. (5) is steep (just below the
@@ -145,28 +146,34 @@ def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=Fal
         uv = g.combine(g.div(u_texel, width), g.div(v_texel, height), 1.0)   # z: Map UV's alpha
         return g.image(atlas, uv, interpolation=interpolation)
 
+    s0, w_s = lower_node(g, x_s, n_s)
     if filtering == "HARDWARE":
-        def tile(atlas, i_h, i_t):
-            return fetch(atlas, g.mul_add(i_t, n_a, g.add(x_a, 0.5)), g.mul_add(i_h, n_s, g.add(x_s, 0.5)), "Linear")
+        def row(atlas, i_h, i_t, j):
+            """Sun-zenith node s0 + j of a tile, interpolated along the view zenith."""
+            return fetch(atlas, g.mul_add(i_t, n_a, g.add(x_a, 0.5)), g.mul_add(i_h, n_s, g.add(s0, 0.5 + j)), "Linear")
     else:
         a0, w_a = lower_node(g, x_a, n_a)
-        s0, w_s = lower_node(g, x_s, n_s)
 
-        def tile(atlas, i_h, i_t):
+        def row(atlas, i_h, i_t, j):
             u0 = g.mul_add(i_t, n_a, g.add(a0, 0.5))
-            v0 = g.mul_add(i_h, n_s, g.add(s0, 0.5))
-            u1, v1 = g.add(u0, 1.0), g.add(v0, 1.0)
-            low = g.vlerp(fetch(atlas, u0, v0, "Closest"), fetch(atlas, u1, v0, "Closest"), w_a)
-            high = g.vlerp(fetch(atlas, u0, v1, "Closest"), fetch(atlas, u1, v1, "Closest"), w_a)
-            return g.vlerp(low, high, w_s)
+            v = g.mul_add(i_h, n_s, g.add(s0, 0.5 + j))
+            return g.vlerp(fetch(atlas, u0, v, "Closest"), fetch(atlas, g.add(u0, 1.0), v, "Closest"), w_a)
 
     def interpolated(atlas):
-        total = None
+        """Linear along the view zenith and the sun-view angle, geometric along the sun zenith
+        and the height (lut_gen.sampling.GEOMETRIC_AXES)."""
+        at_height = []
         for i_h, w_h in even_odd_nodes(g, x_h, n_h):
-            for i_t, w_t in even_odd_nodes(g, x_t, n_t):
-                term = g.vscale(tile(atlas, i_h, i_t), g.mul(w_h, w_t))
-                total = term if total is None else g.vmath("ADD", total, term)
-        return total
+            sun_rows = []
+            for j in (0, 1):
+                total = None
+                for i_t, w_t in even_odd_nodes(g, x_t, n_t):
+                    term = g.vscale(row(atlas, i_h, i_t, j), w_t)
+                    total = term if total is None else g.vmath("ADD", total, term)
+                sun_rows.append(total)
+            at_height.append((g.vgeometric_lerp(sun_rows[0], sun_rows[1], w_s), w_h))
+        (even, _), (odd, w_odd) = at_height     # the two weights sum to 1
+        return g.vgeometric_lerp(even, odd, w_odd)
 
     c_t = gin.outputs["Cos Sun View"]
     radiance = g.vscale(interpolated(image), g.mul(g.mul_add(c_t, c_t, 1.0), RAYLEIGH_PHASE_NORM))
