@@ -24,6 +24,9 @@ from .scene import sun as sun_lamps
 from .scene import wiring
 
 ENGINES = {"CYCLES": "CYCLES", "EEVEE": "BLENDER_EEVEE"}
+# --output's extension picks the format; no extension writes PNG and adds ".png".
+FORMATS = {"": "PNG", ".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".tif": "TIFF", ".tiff": "TIFF",
+           ".exr": "OPEN_EXR"}
 
 
 class BatchError(Exception):
@@ -61,7 +64,9 @@ def parse_args(argv):
     parser.add_argument("--sun-elevation", type=_finite_float, default=None, help="degrees above the horizon")
     parser.add_argument("--sun-azimuth", type=_finite_float, default=None, help="degrees from +Y toward +X")
     parser.add_argument("--output", type=Path, required=True,
-                        help="image path; with --frames, '#' characters are replaced by the frame")
+                        help="image path; its extension picks the format (.png, .jpg, .tif, .exr: "
+                             "scene-linear OpenEXR); with --frames, '#' characters are replaced by "
+                             "the frame, and without '#' '_####' is added before the extension")
     parser.add_argument("--frames", default=None, help="START-END: render an animation's frames")
     parser.add_argument("--tables", choices=["default", "draft"], default="default")
     return parser.parse_args(argv)
@@ -127,30 +132,64 @@ def apply_options(scene, args):
                                  args.sun_azimuth if args.sun_azimuth is not None else azimuth)
 
 
+def output_format(output: Path) -> str:
+    try:
+        return FORMATS[output.suffix.lower()]
+    except KeyError:
+        raise BatchError(f"cannot write {output.name}: --output must end in .png, .jpg, .tif or .exr") from None
+
+
+def set_output_format(scene, file_format: str):
+    settings = scene.render.image_settings
+    settings.file_format = file_format
+    if file_format == "OPEN_EXR":
+        settings.color_depth = "32"         # scene-linear radiance, full float
+        settings.exr_codec = "ZIP"
+    elif file_format == "JPEG":
+        settings.color_mode = "RGB"
+        settings.quality = 95
+    scene.render.use_file_extension = True
+
+
+def frame_pattern(output: Path) -> Path:
+    """An animation's output path with '#' for the frame number: '_####' goes before the
+    extension of a path that has none (Blender would append the number after the extension)."""
+    if "#" in output.name:
+        return output
+    return output.with_name(f"{output.stem}_####{output.suffix}")
+
+
+def parse_frames(text):
+    try:
+        start, end = (int(v) for v in text.split("-"))
+    except ValueError:
+        raise BatchError(f"--frames must be START-END, got {text!r}") from None
+    if start > end:
+        raise BatchError(f"--frames must run forward (START <= END), got {text!r}")
+    return start, end
+
+
 def render(scene, args):
+    """Render the still or the frames; returns the files written."""
     wiring.match_engine(scene)
     output = args.output.resolve()
+    file_format = output_format(output)
+    frames = parse_frames(args.frames) if args.frames else None
     try:
         lut_gen.atomic.probe_writable(output)
     except OSError as exc:
         raise BatchError(f"cannot write {output}: {exc.strerror or exc}") from None
-    scene.render.image_settings.file_format = "PNG"
+    set_output_format(scene, file_format)
     for problem in checks.ensure_passes(scene) + checks.camera_problems(scene, bpy.context.evaluated_depsgraph_get()):
         print(f"warning: {problem}", file=sys.stderr)
-    if args.frames:
-        try:
-            start, end = (int(v) for v in args.frames.split("-"))
-        except ValueError:
-            raise BatchError(f"--frames must be START-END, got {args.frames!r}") from None
-        if start > end:
-            raise BatchError(f"--frames must run forward (START <= END), got {args.frames!r}")
-        scene.frame_start, scene.frame_end = start, end
-        scene.render.filepath = str(output)
+    if frames:
+        scene.frame_start, scene.frame_end = frames
+        scene.render.filepath = str(frame_pattern(output))
         bpy.ops.render.render(animation=True)
-    else:
-        scene.render.filepath = str(output)
-        bpy.ops.render.render(write_still=True)
-    return output
+        return [Path(scene.render.frame_path(frame=f)) for f in range(frames[0], frames[1] + 1)]
+    scene.render.filepath = str(output)
+    bpy.ops.render.render(write_still=True)
+    return [output if output.suffix else output.with_name(output.name + ".png")]
 
 
 def main(argv=None) -> int:
@@ -169,9 +208,13 @@ def main(argv=None) -> int:
             directory = ops.bake_if_needed(props.atmosphere_params(scene.ols).validate(), args.tables)
             terrain = [o for o in scene.objects if o.select_get() and o.type == "MESH"]
             wiring.wire_scene(scene, directory, terrain, resolution=args.tables)
-        output = render(scene, args)
+        written = render(scene, args)
     except (BatchError, wiring.SetupError, lut_gen.LutError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
-    print(f"rendered {output}")
+    missing = [str(path) for path in written if not path.exists()]
+    if missing:
+        print(f"error: Blender reported no error but did not write {', '.join(missing)}", file=sys.stderr)
+        return 1
+    print("rendered " + " ".join(str(path) for path in written))
     return 0

@@ -182,3 +182,25 @@ def test_script_entry_point_runs(tmp_path):
                             capture_output=True, text=True, timeout=600, env=env)
     assert result.returncode == 0, result.stderr[-2000:]
     assert out.read_bytes().startswith(b"\x89PNG")
+
+
+def test_output_format_follows_the_extension(batch, tmp_path, capsys):
+    """--output x.exr writes OpenEXR (it wrote a PNG named .png and printed x.exr); an extension
+    we cannot write is refused before any work."""
+    out = tmp_path / "still.exr"
+    assert batch.main(["--sample", "--tables", "draft", "--resolution", "32x18", "--samples", "1",
+                       "--output", str(out)]) == 0
+    assert out.read_bytes()[:4] == b"\x76\x2f\x31\x01"
+    assert capsys.readouterr().out.strip().splitlines()[-1] == f"rendered {out}"
+    assert batch.main(["--sample", "--tables", "draft", "--output", str(tmp_path / "still.bmp")]) == 1
+    assert "--output must end in .png, .jpg, .tif or .exr" in error_line(capsys)
+    assert not (tmp_path / "still.bmp").exists()
+
+
+def test_frames_without_hashes_are_numbered_and_listed(batch, tmp_path, capsys):
+    assert batch.main(["--sample", "--tables", "draft", "--resolution", "32x18", "--samples", "1",
+                       "--frames", "2-3", "--output", str(tmp_path / "shot.jpg")]) == 0
+    written = [tmp_path / "shot_0002.jpg", tmp_path / "shot_0003.jpg"]
+    assert sorted(tmp_path.glob("shot*")) == written
+    assert capsys.readouterr().out.strip().splitlines()[-1] == "rendered " + " ".join(map(str, written))
+    assert written[0].read_bytes()[:2] == b"\xff\xd8"
