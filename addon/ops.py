@@ -262,6 +262,7 @@ def _update_frame(scene, depsgraph):
     the light-shaft pass is off for this render and the reason printed (the render completes)."""
     if not scene.get(wiring.WIRED_KEY):
         return
+    compositor.sync_settings(scene)     # e.g. the output format: OpenEXR saves scene-linear
     try:
         wiring.match_light_shaft_layout(scene)
         if frame_update.update_frame(scene, depsgraph):

@@ -67,6 +67,7 @@ PROPERTIES_BY_SET = {
         "auto_exposure",
         "tone_mapping_operator",
         "light_adaptation",
+        "tone_map_exr",
     ],
 }
 
@@ -89,6 +90,7 @@ _LIVE_NOW = {
     "auto_exposure",
     "tone_mapping_operator",
     "light_adaptation",
+    "tone_map_exr",
     "enable_light_scattering",
     "lighting_only",
     "enable_light_shafts",
@@ -521,6 +523,9 @@ class OLSSettings(bpy.types.PropertyGroup):
             ("FILMIC_ALU", "Filmic ALU", "Filmic tone mapping operator (Hable)"),
             ("LOGARITHMIC", "Logarithmic", "Logarithmic tone mapping operator (Drago)"),
             ("ADAPTIVE_LOG", "Adaptive Log", "Adaptive logarithmic tone mapping operator (Drago)"),
+            ("BLENDER_VIEW", "Blender View Transform",
+             "No tone-mapping curve: the scene's own view transform (Color Management, AgX by "
+             "default) maps the image; Auto Exposure still sets its exposure"),
         ),
         default="UNCHARTED2",
         update=_sync_compositor,
@@ -529,6 +534,13 @@ class OLSSettings(bpy.types.PropertyGroup):
         name="Light Adaptation",
         description=_d("light_adaptation", "Simulate temporal light adaptation across frames"),
         default=True,
+    )
+    tone_map_exr: BoolProperty(
+        name="Tone Map EXR",
+        description="Apply the tone mapping to renders saved as OpenEXR too. Off: EXR files hold "
+                    "scene-linear radiance with the atmosphere applied, as any Blender render",
+        default=False,
+        update=_sync_compositor,
     )
 
 

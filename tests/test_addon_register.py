@@ -94,7 +94,7 @@ def test_every_control_is_a_property(addon_package):
         "scattering_scale", "use_custom_scattering_coeffs", "rayleigh_color", "mie_color",
         "aerosol_density", "aerosol_absorption", "atmosphere_preset", "ground_albedo", "ozone_column", "animate_sun",
         "middle_gray", "white_point", "luminance_saturation", "auto_exposure", "tone_mapping_operator",
-        "light_adaptation", "enable_light_scattering", "lighting_only", "enable_light_shafts",
+        "light_adaptation", "tone_map_exr", "enable_light_scattering", "lighting_only", "enable_light_shafts",
         "shadow_map_resolution", "num_integration_steps", "single_scattering_mode", "multiple_scattering_mode",
         "num_cascades", "show_cascades", "smooth_shadows", "best_cascade_search", "cascade_partitioning_factor",
         "first_cascade_to_ray_march", "scattering_technique", "epipolar_slices", "samples_per_slice",
@@ -140,7 +140,8 @@ def test_defaults_and_ranges(scene, addon_package):
     assert ols.tone_mapping_operator == "UNCHARTED2"
     rna = ols.bl_rna.properties
     assert [i.identifier for i in rna["tone_mapping_operator"].enum_items] == [
-        "EXP", "REINHARD", "REINHARD_MOD", "UNCHARTED2", "FILMIC_ALU", "LOGARITHMIC", "ADAPTIVE_LOG"]
+        "EXP", "REINHARD", "REINHARD_MOD", "UNCHARTED2", "FILMIC_ALU", "LOGARITHMIC", "ADAPTIVE_LOG",
+        "BLENDER_VIEW"]
     assert [i.identifier for i in rna["shadow_map_resolution"].enum_items] == [
         "512", "1024", "2048", "4096"]
     ranges = {"num_integration_steps": (5, 100), "epipolar_slices": (32, 2048),

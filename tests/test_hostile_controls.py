@@ -58,6 +58,7 @@ def numeric_controls(settings):
 
 
 def check_composite(scene, path, what):
+    scene.ols.tone_map_exr = True            # the tone mapping's controls reach the EXR too
     rgb = render_rgb(scene, path, composite=True)
     assert rgb.shape == (HEIGHT, WIDTH, 3)
     assert np.isfinite(rgb).all(), what

@@ -98,6 +98,7 @@ def animated_scene(pkg, tmp_path):
     scene = sample_scene(pkg)
     assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
     scene.ols.enable_light_scattering = False         # the tone mapping alone (aerial: test_aerial_pass)
+    scene.ols.tone_map_exr = True                     # the frames are read back as OpenEXR
     scene.render.resolution_x, scene.render.resolution_y = 32, 18
     scene.cycles.samples = 2
     scene.cycles.seed = 1

@@ -128,6 +128,7 @@ def test_tone_mapped_sample_render_matches_the_twin(addon_package, tmp_path, mon
     assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
     assert bpy.data.node_groups.get("OLS Compositing") == scene.compositing_node_group
     scene.ols.enable_light_scattering = False           # tone mapping alone (aerial: test_aerial_pass)
+    scene.ols.tone_map_exr = True                       # render_rgb reads OpenEXR
     scene.render.resolution_x, scene.render.resolution_y = 64, 36
     scene.cycles.samples = 4
     scene.cycles.seed = 1

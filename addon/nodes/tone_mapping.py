@@ -5,6 +5,9 @@ index in OPERATORS) so a driver from scene.ols switches it; all seven are evalua
 chosen one is kept. Auto exposure takes the log-average luminance of the frame from the Levels
 node's mean over log luminance; otherwise "Average Luminance" is used (the sample's 0.1).
 
+"Linear Output" 1 passes the image through unchanged: renders saved as OpenEXR hold scene-linear
+radiance (addon/scene/compositor.py sets it from the output format).
+
 Light adaptation: the operators use Previous + (measured - Previous) * Adaptation Weight (weight 1,
 the default, is no adaptation). A compositor has no memory across frames, so Python carries it
 (addon/scene/adaptation.py): the output "Adapted Luminance" is a 1 x 1 image of the luminance this
@@ -28,6 +31,7 @@ INPUTS = [
     ("Average Luminance", "NodeSocketFloat", twin.FIXED_AVERAGE_LUMINANCE),
     ("Previous Luminance", "NodeSocketFloat", twin.FIXED_AVERAGE_LUMINANCE),
     ("Adaptation Weight", "NodeSocketFloat", 1.0),
+    ("Linear Output", "NodeSocketFloat", 0.0),     # 1: pass the image through (scene-linear EXR)
 ]
 OUTPUTS = [("Image", "NodeSocketColor", None), ("Adapted Luminance", "NodeSocketColor", None)]
 
@@ -104,11 +108,14 @@ def build_tone_mapping_group():
         x = g.math("MAXIMUM", g.sub(scaled, 0.004), 0.0)
         filmic = g.div(g.mul(x, g.mul_add(x, 6.2, 0.5)), g.add(g.mul(x, g.mul_add(x, 6.2, 1.7)), 0.06))
         results["FILMIC_ALU"] = g.math("POWER", filmic, 2.2)
+        results["BLENDER_VIEW"] = g.mul(c, g.lerp(1.0, scale, gin.outputs["Auto Exposure"]))
         chosen = None
         for index, name in enumerate(twin.OPERATORS):
             term = g.mul(results[name], g.math("COMPARE", operator, float(index), 0.5))
             chosen = term if chosen is None else g.add(chosen, term)
         channels.append(chosen)
+    linear = gin.outputs["Linear Output"]
+    channels = [g.lerp(chosen, split.outputs[name], linear) for chosen, name in zip(channels, ("Red", "Green", "Blue"))]
     merge = g.node("CompositorNodeCombineColor")
     for name, value in zip(("Red", "Green", "Blue"), channels):
         g.feed(merge.inputs[name], value)

@@ -11,7 +11,11 @@ import math
 
 import numpy as np
 
-OPERATORS = ("EXP", "REINHARD", "REINHARD_MOD", "UNCHARTED2", "FILMIC_ALU", "LOGARITHMIC", "ADAPTIVE_LOG")
+# The sample's seven operators, then ours: BLENDER_VIEW applies only the exposure (auto exposure's
+# middle gray / average, else none) and leaves the curve to the scene's view transform.
+OPERATORS = ("EXP", "REINHARD", "REINHARD_MOD", "UNCHARTED2", "FILMIC_ALU", "LOGARITHMIC", "ADAPTIVE_LOG",
+             "BLENDER_VIEW")
+VIEW_TRANSFORM_OPERATORS = ("BLENDER_VIEW",)   # the scene's view transform stays on
 RGB_TO_LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
 FIXED_AVERAGE_LUMINANCE = 0.1      # the sample's average luminance when auto exposure is off
 MIN_LUMINANCE = 1e-10
@@ -64,6 +68,8 @@ def tone_map(rgb, operator="UNCHARTED2", middle_gray=0.18, white_point=3.0, lumi
     scaled_lum = lum * scale
     scaled = colour * scale
     chroma = np.power(colour / lum, luminance_saturation)
+    if operator == "BLENDER_VIEW":
+        return scaled if average_luminance is not None else colour
     if operator == "EXP":
         return (1.0 - np.exp(-scaled_lum)) * chroma
     if operator == "REINHARD":

@@ -1,7 +1,11 @@
 """The scattering passes (aerial perspective, light shafts) and the tone mapping in the scene's
 compositor, inserted without destroying a tree the user already has: our group node goes onto
-the link that feeds the tree's output, and ``unwire_compositor`` puts that link back. The view
-transform is set to Standard (so nothing tone maps twice) and restored on unwire.
+the link that feeds the tree's output, and ``unwire_compositor`` puts that link back. With one of
+the sample's operators the view transform is set to Standard (so nothing tone maps twice); with
+"Blender View Transform", and on unwire, the user's own is restored.
+
+Renders saved as OpenEXR get the image before the tone mapping (scene-linear radiance) unless
+"Tone Map EXR" is on: the tone-mapping group's "Linear Output" follows the output format.
 
 Settings reach the groups' inputs here (sync_settings); per-frame values (camera, sun, shadow
 cascades) go through images, see frame_update."""
@@ -24,6 +28,8 @@ FRAME_IMAGE = "OLS Frame Values"
 PREVIOUS_PASSES = "ols_previous_passes"
 CREATED_TREE = "ols_created_compositor"
 PREVIOUS_VIEW = "ols_previous_view_transform"
+VIEW_MODE = "ols_view_mode"           # "SAMPLE": ours set Standard; absent: the user's view is on
+EXR_FORMATS = {"OPEN_EXR", "OPEN_EXR_MULTILAYER"}
 SOURCE = "ols_source"                 # on our node: the node it was inserted after ...
 SOURCE_OUTPUT = "ols_source_output"   # ... and that node's output index
 
@@ -76,11 +82,31 @@ def wire_compositor(scene):
     adaptation.ensure_output_node(tree, node)     # light adaptation reads each frame's luminance back
     _insert_aerial(scene, tree, node)
     sync_settings(scene)
-    if scene.view_settings.view_transform != "Standard":
-        scene[PREVIOUS_VIEW] = scene.view_settings.view_transform
-        scene.view_settings.view_transform = "Standard"
     scene.render.use_compositing = True
     return node
+
+
+def sync_view_transform(scene, operator):
+    """Standard under the sample's operators, the user's own view transform under
+    BLENDER_VIEW. Only a change of operator family touches the setting, so a view transform the
+    user picks while "Blender View Transform" is on stays theirs."""
+    view = scene.view_settings
+    if operator in tone_mapping.VIEW_TRANSFORM_OPERATORS:
+        if scene.get(VIEW_MODE) == "SAMPLE":
+            if PREVIOUS_VIEW in scene:
+                view.view_transform = scene[PREVIOUS_VIEW]
+                del scene[PREVIOUS_VIEW]
+            del scene[VIEW_MODE]
+    elif scene.get(VIEW_MODE) != "SAMPLE":
+        if view.view_transform != "Standard":
+            scene[PREVIOUS_VIEW] = view.view_transform
+            view.view_transform = "Standard"
+        scene[VIEW_MODE] = "SAMPLE"
+
+
+def linear_output(scene, settings) -> bool:
+    """Whether renders now save scene-linear radiance (OpenEXR without Tone Map EXR)."""
+    return scene.render.image_settings.file_format in EXR_FORMATS and not settings.tone_map_exr
 
 
 def _insert_aerial(scene, tree, tone_node):
@@ -182,6 +208,8 @@ def unwire_compositor(scene):
     if PREVIOUS_VIEW in scene:
         scene.view_settings.view_transform = scene[PREVIOUS_VIEW]
         del scene[PREVIOUS_VIEW]
+    if VIEW_MODE in scene:
+        del scene[VIEW_MODE]
     if CREATED_TREE in scene:
         del scene[CREATED_TREE]
 
@@ -198,7 +226,9 @@ def sync_settings(scene):
     _set_inputs(node, {"Middle Gray": settings.middle_gray, "White Point": settings.white_point,
                        "Luminance Saturation": settings.luminance_saturation,
                        "Auto Exposure": float(settings.auto_exposure),
-                       "Operator": float(tone_mapping.OPERATORS.index(settings.tone_mapping_operator))})
+                       "Operator": float(tone_mapping.OPERATORS.index(settings.tone_mapping_operator)),
+                       "Linear Output": float(linear_output(scene, settings))})
+    sync_view_transform(scene, settings.tone_mapping_operator)
     aerial = tree.nodes.get(AERIAL_NODE)
     if aerial is None or aerial.node_tree is None:
         return

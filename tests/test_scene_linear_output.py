@@ -1,0 +1,101 @@
+"""Pipeline output (issue 10): renders saved as OpenEXR hold scene-linear radiance with the
+atmosphere applied, display formats the chosen tone mapping; the "Blender View Transform"
+operator leaves the curve to the scene's own view transform."""
+from importlib import import_module
+
+import numpy as np
+import pytest
+
+from render_util import render_rgb
+from test_tone_mapping import sample_scene
+
+bpy = pytest.importorskip("bpy")
+
+
+@pytest.fixture
+def wired(addon_package, tmp_path, monkeypatch):
+    monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "cache"))
+    scene = sample_scene(addon_package)
+    scene.view_settings.view_transform = "AgX"
+    assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+    scene.render.resolution_x, scene.render.resolution_y = 40, 24
+    scene.cycles.samples = 2
+    scene.cycles.seed = 7
+    return scene
+
+
+def render_png16(scene, path):
+    """Render a 16-bit PNG (through the view transform, as Blender saves it) and return its
+    encoded values in 0-1, row 0 at the top."""
+    settings = scene.render.image_settings
+    settings.file_format, settings.color_mode, settings.color_depth = "PNG", "RGB", "16"
+    scene.render.use_compositing = True
+    scene.render.filepath = str(path)
+    bpy.ops.render.render(write_still=True)
+    image = bpy.data.images.load(str(path))
+    image.colorspace_settings.name = "Non-Color"           # the stored values, not linearised
+    width, height = image.size
+    pixels = np.array(image.pixels[:], dtype=np.float64).reshape(height, width, 4)[::-1, :, :3]
+    bpy.data.images.remove(image)
+    return pixels
+
+
+def tone_node(scene):
+    return scene.compositing_node_group.nodes["OLS Tone Mapping"]
+
+
+def test_exr_is_scene_linear_and_png_is_tone_mapped(addon_package, wired, tmp_path):
+    twin = import_module(addon_package.__name__ + ".addon.post.tone_mapping")
+    scene = wired
+    linear = render_rgb(scene, tmp_path / "beauty.exr", composite=True)
+    assert tone_node(scene).inputs["Linear Output"].default_value == 1.0
+    # The same composite with the tone mapping taken out of the tree: identical.
+    tone_node(scene).mute = True
+    bypassed = render_rgb(scene, tmp_path / "bypassed.exr", composite=True)
+    tone_node(scene).mute = False
+    np.testing.assert_allclose(linear, bypassed, rtol=1e-6, atol=1e-9)
+    assert linear.max() > 1.0                      # radiance, not display values: the sun-lit sky
+    # The display format of the same frame shows the panel's operator.
+    png = render_png16(scene, tmp_path / "beauty.png")
+    assert tone_node(scene).inputs["Linear Output"].default_value == 0.0
+    want = twin.srgb_encode(twin.tone_map(linear, "UNCHARTED2", average_luminance=twin.log_average_luminance(linear)))
+    assert np.abs(png - want).max() <= 2e-3
+    assert 0.05 < png.mean() < 0.95
+    # Tone Map EXR bakes the look into EXR too.
+    scene.ols.tone_map_exr = True
+    mapped = render_rgb(scene, tmp_path / "mapped.exr", composite=True)
+    assert np.abs(twin.srgb_encode(mapped) - png).max() <= 2e-3
+
+
+def test_blender_view_transform_operator(addon_package, wired, tmp_path):
+    twin = import_module(addon_package.__name__ + ".addon.post.tone_mapping")
+    wiring = import_module(addon_package.__name__ + ".addon.scene.wiring")
+    scene = wired
+    assert scene.view_settings.view_transform == "Standard"        # the sample's operators
+    scene.ols.tone_mapping_operator = "BLENDER_VIEW"
+    assert scene.view_settings.view_transform == "AgX"             # the user's own is back
+    scene.ols.auto_exposure = False
+    ours = render_png16(scene, tmp_path / "ours.png")
+    tone_node(scene).mute = True                                    # the scene without our tone mapping
+    plain = render_png16(scene, tmp_path / "plain.png")
+    tone_node(scene).mute = False
+    assert np.abs(ours - plain).max() <= 1e-3
+    assert 0.05 < ours.mean() < 0.95
+    # Auto exposure still sets the exposure: middle gray over the frame's log-average luminance.
+    scene.ols.auto_exposure = True
+    scene.ols.tone_map_exr = True
+    exposed = render_rgb(scene, tmp_path / "exposed.exr", composite=True)
+    scene.ols.tone_map_exr = False
+    linear = render_rgb(scene, tmp_path / "linear.exr", composite=True)
+    want = twin.tone_map(linear, "BLENDER_VIEW", average_luminance=twin.log_average_luminance(linear))
+    np.testing.assert_allclose(exposed, want, rtol=2e-3, atol=1e-6)
+    assert not np.allclose(exposed, linear, rtol=0.05)
+    # A view transform the user picks meanwhile stays; the sample's operators set Standard again
+    # and unwiring restores the user's choice.
+    scene.view_settings.view_transform = "Filmic"
+    scene.ols.middle_gray = 0.2
+    assert scene.view_settings.view_transform == "Filmic"
+    scene.ols.tone_mapping_operator = "REINHARD"
+    assert scene.view_settings.view_transform == "Standard"
+    wiring.unwire_scene(scene)
+    assert scene.view_settings.view_transform == "Filmic"
