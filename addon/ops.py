@@ -232,8 +232,8 @@ def _update_scene(scene):
         wiring.match_engine(scene)
         wiring.match_light_shaft_layout(scene)
         if scene.ols.animate_sun:
-            elevation, azimuth = animation.sun_angles_for_frame(scene.frame_current, scene.frame_start,
-                                                                scene.frame_end)
+            elevation, azimuth = animation.sun_angles_for_frame(scene.frame_current, scene.ols.day_start_frame,
+                                                                scene.ols.day_end_frame)
             sun_lamps.set_sun_angles(sun, elevation, azimuth)
         wiring.refresh(scene)
     except (lut_gen.LutError, OSError, ValueError) as exc:

@@ -59,6 +59,8 @@ PROPERTIES_BY_SET = {
         "ground_albedo",
         "ozone_column",
         "animate_sun",
+        "day_start_frame",
+        "day_end_frame",
     ],
     "TONE_MAPPING": [
         "middle_gray",
@@ -84,6 +86,8 @@ _LIVE_NOW = {
     "ground_albedo",
     "ozone_column",
     "animate_sun",
+    "day_start_frame",
+    "day_end_frame",
     "middle_gray",
     "white_point",
     "luminance_saturation",
@@ -155,6 +159,13 @@ def _sync_compositor(settings, context):
         from .scene import compositor, wiring
         wiring.match_light_shaft_layout(context.scene)
         compositor.sync_settings(context.scene)
+
+
+def _capture_day_range(settings, context):
+    """Animate Sun spreads the day over the frame range it was turned on with, not over
+    whatever range a later (chunked) render sets."""
+    if settings.animate_sun and context.scene is not None:
+        settings.day_start_frame, settings.day_end_frame = context.scene.frame_start, context.scene.frame_end
 
 
 def _start_rebake():
@@ -477,8 +488,23 @@ class OLSSettings(bpy.types.PropertyGroup):
     )
     animate_sun: BoolProperty(
         name="Animate Sun",
-        description="Animate the sun across the sky",
+        description="Animate the sun across the sky: a day at 45 deg N from an hour before sunrise "
+                    "(Day Start Frame) to an hour after sunset (Day End Frame). Turning it on takes "
+                    "the scene's frame range",
         default=False,
+        update=_capture_day_range,
+    )
+    day_start_frame: IntProperty(
+        name="Day Start Frame",
+        description="Frame of an hour before sunrise for Animate Sun. Kept with the scene, so a render "
+                    "farm's chunks (blender -s A -e B) and render.py --frames give each frame the sun "
+                    "of the whole animation",
+        default=1,
+    )
+    day_end_frame: IntProperty(
+        name="Day End Frame",
+        description="Frame of an hour after sunset for Animate Sun (see Day Start Frame)",
+        default=250,
     )
 
     # -- tone mapping -----------------------------------------------------------------------

@@ -16,6 +16,8 @@ ENABLED_BY = {
     "mie_color": lambda settings: settings.use_custom_scattering_coeffs,
     "ground_albedo": lambda settings: settings.atmosphere_preset == "CLEAR_SKY",
     "ozone_column": lambda settings: settings.atmosphere_preset == "CLEAR_SKY",
+    "day_start_frame": lambda settings: settings.animate_sun,
+    "day_end_frame": lambda settings: settings.animate_sun,
     **{name: (lambda settings: settings.scattering_technique == "EPIPOLAR_SAMPLING")
        for name in ("epipolar_slices", "samples_per_slice", "initial_sample_step", "epipole_sampling_density",
                     "refinement_threshold", "show_sampling", "use_min_max_optimization")},

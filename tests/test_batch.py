@@ -159,8 +159,10 @@ def test_frames_follow_the_animated_sun(batch, tmp_path, addon_package):
                        "--frames", "1-2", "--output", str(tmp_path / "frame_####")]) == 0
     assert sorted(p.name for p in tmp_path.glob("frame_*.png")) == ["frame_0001.png", "frame_0002.png"]
     scene = bpy.context.scene
-    scene.ols.animate_sun = True
     scene.frame_start, scene.frame_end = 1, 100
+    scene.ols.animate_sun = True                           # takes the day's frames from the range
+    assert (scene.ols.day_start_frame, scene.ols.day_end_frame) == (1, 100)
+    scene.frame_start, scene.frame_end = 49, 50            # a farm's chunk: the same sun per frame
     sun = bpy.data.objects["OLS Sun"]
     directions = []
     for frame in (10, 50, 90):

@@ -1,6 +1,8 @@
-"""animate_sun: the sun follows a day across the scene's frame range (equinox at 45 deg N:
-rises in the east, culminates due south at 45 deg, sets in the west; frame_start is
-sunrise minus an hour, frame_end sunset plus an hour)."""
+"""animate_sun: the sun follows a day across the frames day_start_frame-day_end_frame (the
+scene's frame range when Animate Sun was turned on; kept apart from it so that a farm's chunk,
+which changes the frame range, gets the same sun). Equinox at 45 deg N: rises in the east,
+culminates due south at 45 deg, sets in the west; the first frame is sunrise minus an hour, the
+last sunset plus an hour."""
 from __future__ import annotations
 
 import math
