@@ -282,8 +282,8 @@ def test_panel(scene, addon_package):
         assert [entry[1] for entry in drawn[1:]] == names
         for _, name, active, enabled in drawn[1:]:
             assert active == (name not in props.LATER_ISSUE), name
-            if name in ("rayleigh_color", "mie_color"):
-                assert enabled is False  # custom coefficients are off by default
+            if name in ("rayleigh_color", "mie_color", "day_start_frame", "day_end_frame"):
+                assert enabled is False  # custom coefficients and Animate Sun are off by default
             else:
                 assert enabled is True, name
         notes = [e for e in log if e[0] == "label" and "tooltips say why" in e[1]]
