@@ -19,7 +19,7 @@ import bpy
 
 from .. import lut_gen
 from . import ops, props
-from .scene import checks, luts
+from .scene import adaptation_plan, checks, luts
 from .scene import sun as sun_lamps
 from .scene import wiring
 
@@ -183,6 +183,13 @@ def render(scene, args):
     for problem in checks.ensure_passes(scene) + checks.camera_problems(scene, bpy.context.evaluated_depsgraph_get()):
         print(f"warning: {problem}", file=sys.stderr)
     if frames:
+        if adaptation_plan.wanted(scene):
+            # Measured from the animation's first frame, so this job's frames equal those of one
+            # job over the whole range, whichever chunk it renders.
+            try:
+                adaptation_plan.ensure(scene, adaptation_plan.first_frame_needed(scene, frames[0]), frames[1])
+            except adaptation_plan.PlanError as exc:
+                raise BatchError(f"cannot measure the light adaptation: {exc}") from None
         scene.frame_start, scene.frame_end = frames
         scene.render.filepath = str(frame_pattern(output))
         bpy.ops.render.render(animation=True)

@@ -12,7 +12,7 @@ from bpy.props import BoolProperty, EnumProperty, StringProperty
 
 from .. import lut_gen
 from . import props
-from .scene import adaptation, animation, checks, compositor, frame_update, luts, wiring
+from .scene import adaptation, adaptation_plan, animation, checks, compositor, frame_update, luts, wiring
 from .scene import sun as sun_lamps
 
 RESOLUTION_ITEMS = [("default", "Default", "The sample's 32 x 128 x 64 x 16 tables (~10-20 s)"),
@@ -222,6 +222,37 @@ class OLS_OT_render(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class OLS_OT_measure_adaptation(bpy.types.Operator):
+    """Measure the light adaptation of every frame in a quick low-resolution pre-pass and store it
+    in the scene, so that frames rendered in separate processes (a render farm's chunks) adapt as
+    in one job"""
+    bl_idname = "ols.measure_adaptation"
+    bl_label = "Measure Light Adaptation"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None and bool(context.scene.get(wiring.WIRED_KEY))
+
+    def execute(self, context):
+        scene = context.scene
+        if not scene.ols.light_adaptation:
+            self.report({"ERROR"}, "Light Adaptation is off: nothing to measure")
+            return {"CANCELLED"}
+        if not scene.render.use_compositing:
+            self.report({"ERROR"}, "Compositing is off (Output Properties > Post Processing): the tone "
+                                   "mapping does not run, so there is no adaptation to measure")
+            return {"CANCELLED"}
+        try:
+            plan = adaptation_plan.build(scene, progress=print)
+        except adaptation_plan.PlanError as exc:
+            self.report({"ERROR"}, f"Cannot measure the light adaptation: {exc}")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Light adaptation measured for frames {plan['start']}-{plan['end']}; "
+                              "save the file before sending it to a farm")
+        return {"FINISHED"}
+
+
 # -- handlers ---------------------------------------------------------------------------------
 
 def _update_scene(scene):
@@ -358,4 +389,4 @@ def unregister_handlers():
     wiring.forget_caches()
 
 
-CLASSES = (OLS_OT_bake_luts, OLS_OT_setup_scene, OLS_OT_render)
+CLASSES = (OLS_OT_bake_luts, OLS_OT_setup_scene, OLS_OT_render, OLS_OT_measure_adaptation)

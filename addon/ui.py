@@ -8,6 +8,7 @@ OPERATORS = (
     ("ols.setup_scene", "Set Up Scene", 'WORLD'),
     ("ols.bake_luts", "Bake Tables", 'FILE_REFRESH'),
     ("ols.render", "Render", 'RENDER_STILL'),
+    ("ols.measure_adaptation", "Measure Light Adaptation", 'RENDER_ANIMATION'),
 )
 
 # Controls whose row is enabled only while a condition on the settings holds.

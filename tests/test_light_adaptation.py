@@ -193,3 +193,61 @@ def test_animation_adapts_to_a_brightness_jump(addon_package, tmp_path, monkeypa
     assert not list(Path(output.directory).glob("*.exr"))
     module(addon_package, "scene.wiring").unwire_scene(scene)
     assert adaptation.FRAME_KEY not in scene and adaptation.LUMINANCE_KEY not in scene
+
+
+def test_plan_arithmetic(addon_package):
+    plan_mod = module(addon_package, "scene.adaptation_plan")
+    twin = module(addon_package, "post.tone_mapping")
+    assert plan_mod.adapted_sequence([1.0, 3.0, 3.0], 0.5) == [1.0, 2.0, 2.5]
+    plan = plan_mod.check_plan(dict(version=1, start=10, end=14, step=2, weight=0.5, adapted=[1.0, 2.0, 2.5],
+                                    signature="x"))
+    assert plan_mod.inputs_from_plan(plan, 10) == (twin.FIXED_AVERAGE_LUMINANCE, 1.0)   # the first frame
+    assert plan_mod.inputs_from_plan(plan, 14) == (2.0, 0.5)
+    assert plan_mod.inputs_from_plan(plan, 13) is None and plan_mod.inputs_from_plan(plan, 16) is None
+    for bad in (dict(plan, version=2), dict(plan, adapted=[1.0, float("nan"), 1.0]), dict(plan, adapted=[1.0]),
+                dict(plan, weight="x"), dict(plan, step=0), [1, 2]):
+        with pytest.raises(plan_mod.PlanError):
+            plan_mod.check_plan(bad)
+    # (1 - w)^n < 1e-6: at 24 fps (w = 0.041) 13.8 s of frames
+    assert plan_mod.history_frames(twin.adaptation_weight(1 / 24)) == 332
+    assert plan_mod.history_frames(1.0) == 1
+
+
+def test_chunks_rendered_apart_adapt_like_one_job(addon_package, tmp_path, monkeypatch, capsys):
+    """A farm renders chunks of frames in fresh processes: with the measured plan, frames 1-4 as
+    one job and as two chunks that know nothing of each other's frames are identical."""
+    import json
+    monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "cache"))
+    adaptation = module(addon_package, "scene.adaptation")
+    plan_mod = module(addon_package, "scene.adaptation_plan")
+    scene = animated_scene(addon_package, tmp_path)
+    scene.ols.light_adaptation = True
+    scene.frame_start, scene.frame_end = 1, 4
+    plan = plan_mod.build(scene, progress=None)
+    assert plan["start"] == 1 and plan["end"] == 4 and len(plan["adapted"]) == 4
+    assert plan["adapted"][0] < plan["adapted"][1] < plan["adapted"][2]        # adapting to the jump
+    frames = (1, 2, 3, 4)
+    one_job = render_animation(scene, tmp_path, "one", frames)
+    chunks = []
+    for chunk in ((1, 2), (3, 4)):
+        adaptation.forget(scene)                     # a fresh process: no frame rendered before
+        chunks += render_animation(scene, tmp_path, f"chunk{chunk[0]}_", chunk)
+    for frame, a, b in zip(frames, one_job, chunks):
+        assert np.abs(a - b).max() <= 1e-5, frame
+    # Without the plan the second chunk starts afresh: its first frame differs.
+    text = scene[plan_mod.PLAN_KEY]
+    plan_mod.forget(scene)
+    adaptation.forget(scene)
+    fresh = render_animation(scene, tmp_path, "fresh", (3, 4))
+    assert np.abs(fresh[0] - one_job[2]).max() > 1e-3
+    # A damaged plan, or one made for another state of the scene, is not used, with one line.
+    for stored, words in (("{not json", "damaged"), (text, "another state of the scene")):
+        scene[plan_mod.PLAN_KEY] = stored
+        if words.startswith("another"):
+            scene.ols.middle_gray = 0.2
+        capsys.readouterr()
+        adaptation.forget(scene)
+        again = render_animation(scene, tmp_path, "stale", (3, 4))
+        assert words in capsys.readouterr().out
+        assert np.abs(again[0] - one_job[2]).max() > 1e-3
+    assert json.loads(text)["signature"] != plan_mod.signature(scene)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import os
 import struct
+from contextlib import contextmanager
 from pathlib import Path
 
 import bpy
@@ -30,6 +31,20 @@ OUTPUT_NODE = "OLS Adapted Luminance"
 OUTPUT_FILE = "adapted_luminance_"
 LUMINANCE_KEY = "ols_adapted_luminance"  # on the scene: the adapted luminance of ...
 FRAME_KEY = "ols_adapted_frame"          # ... the last frame rendered through the tone mapping
+
+# This render job's stored plan (adaptation_plan.py), loaded once per job; and whether the
+# pre-pass is measuring (every frame unadapted).
+_job = {"plan": None, "measuring": False}
+
+
+@contextmanager
+def unadapted():
+    """Renders inside measure each frame's own luminance (the pre-pass of adaptation_plan)."""
+    _job["measuring"] = True
+    try:
+        yield
+    finally:
+        _job["measuring"] = False
 
 
 # -- the adaptation state (pure) ----------------------------------------------------------------
@@ -124,8 +139,13 @@ def push_inputs(scene, frame: int):
     if tone is None:
         return
     render = scene.render
-    previous, weight = inputs_for_frame(
-        frame, scene.get(FRAME_KEY), scene.get(LUMINANCE_KEY), enabled=scene.ols.light_adaptation,
+    planned = None
+    if _job["plan"] is not None and scene.ols.light_adaptation and not _job["measuring"]:
+        from .adaptation_plan import inputs_from_plan
+        planned = inputs_from_plan(_job["plan"], frame)
+    previous, weight = planned or inputs_for_frame(
+        frame, scene.get(FRAME_KEY), scene.get(LUMINANCE_KEY),
+        enabled=scene.ols.light_adaptation and not _job["measuring"],
         frame_step=scene.frame_step, seconds_per_frame=frame_seconds(render.fps, render.fps_base))
     _set(tone, previous, weight)
 
@@ -172,11 +192,27 @@ def begin_render(scene):
     if output.directory != directory:
         output.directory = directory
     output.mute = False
+    _job["plan"] = None
+    if scene.ols.light_adaptation and not _job["measuring"]:
+        _job["plan"] = _load_plan(scene)
     push_inputs(scene, scene.frame_start)
+
+
+def _load_plan(scene):
+    """The scene's current plan, or None with one line saying why frames adapt along this
+    process's renders instead (a farm's chunks then differ at their boundaries)."""
+    from . import adaptation_plan
+    plan, problem = adaptation_plan.stored(scene)
+    if problem is not None:
+        print(f"Outdoor Light Scattering: {problem}: frames adapt along the frames this process renders, "
+              "so chunks rendered apart differ at their boundaries; press Measure Light Adaptation "
+              "(Tone mapping panel) and save, or render with scripts/render.py, which measures itself")
+    return plan
 
 
 def end_render(scene):
     """Back to no adaptation, so the viewport compositor and a saved file show the plain frame."""
+    _job["plan"] = None
     tone, output = _nodes(scene)
     if tone is not None:
         _set(tone, twin.FIXED_AVERAGE_LUMINANCE, 1.0)
