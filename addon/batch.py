@@ -19,7 +19,7 @@ import bpy
 
 from .. import lut_gen
 from . import ops, props
-from .scene import adaptation_plan, checks, luts
+from .scene import adaptation_plan, checks, luts, packed_tables
 from .scene import sun as sun_lamps
 from .scene import wiring
 
@@ -63,13 +63,21 @@ def parse_args(argv):
     parser.add_argument("--samples", type=_positive_int, default=None, help="render samples (default: the scene's)")
     parser.add_argument("--sun-elevation", type=_finite_float, default=None, help="degrees above the horizon")
     parser.add_argument("--sun-azimuth", type=_finite_float, default=None, help="degrees from +Y toward +X")
-    parser.add_argument("--output", type=Path, required=True,
+    parser.add_argument("--pack", action="store_true",
+                        help="store the tables in the .blend given with --blend and save it (for render "
+                             "farms: workers then render without baking); --output is then optional")
+    parser.add_argument("--output", type=Path, default=None,
                         help="image path; its extension picks the format (.png, .jpg, .tif, .exr: "
                              "scene-linear OpenEXR); with --frames, '#' characters are replaced by "
                              "the frame, and without '#' '_####' is added before the extension")
     parser.add_argument("--frames", default=None, help="START-END: render an animation's frames")
     parser.add_argument("--tables", choices=["default", "draft"], default="default")
-    return parser.parse_args(argv)
+    args = parser.parse_args(argv)
+    if args.output is None and not args.pack:
+        parser.error("the following arguments are required: --output")
+    if args.pack and not args.blend:
+        parser.error("--pack stores the tables in the file given with --blend")
+    return args
 
 
 def egl_available() -> bool:
@@ -199,6 +207,12 @@ def render(scene, args):
     return [output if output.suffix else output.with_name(output.name + ".png")]
 
 
+def wire(scene, args):
+    directory = ops.bake_if_needed(props.atmosphere_params(scene.ols).validate(), args.tables)
+    terrain = [o for o in scene.objects if o.select_get() and o.type == "MESH"]
+    wiring.wire_scene(scene, directory, terrain, resolution=args.tables)
+
+
 def main(argv=None) -> int:
     args = parse_args(sys.argv[1:] if argv is None else argv)
     try:
@@ -210,11 +224,20 @@ def main(argv=None) -> int:
             # A wired file: its tables were re-baked on load where they were missing or damaged
             # (ops.on_file_loaded); never touch, let alone render, tables that still fail.
             luts.verify_wired(scene[wiring.WIRED_KEY])
+        if args.pack:
+            if not scene.get(wiring.WIRED_KEY):
+                wire(scene, args)           # with the file's own settings: the render options are not saved
+            size = packed_tables.pack(scene[wiring.WIRED_KEY])
+            try:
+                bpy.ops.wm.save_mainfile()
+            except RuntimeError as exc:
+                raise BatchError(f"cannot save {bpy.data.filepath}: {exc}") from None
+            print(f"packed {size / 2**20:.0f} MiB of tables into {bpy.data.filepath}")
+            if args.output is None:
+                return 0
         apply_options(scene, args)
         if not scene.get(wiring.WIRED_KEY):
-            directory = ops.bake_if_needed(props.atmosphere_params(scene.ols).validate(), args.tables)
-            terrain = [o for o in scene.objects if o.select_get() and o.type == "MESH"]
-            wiring.wire_scene(scene, directory, terrain, resolution=args.tables)
+            wire(scene, args)
         written = render(scene, args)
     except (BatchError, wiring.SetupError, lut_gen.LutError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -12,7 +12,8 @@ from bpy.props import BoolProperty, EnumProperty, StringProperty
 
 from .. import lut_gen
 from . import props
-from .scene import adaptation, adaptation_plan, animation, checks, compositor, frame_update, luts, wiring
+from .scene import (adaptation, adaptation_plan, animation, checks, compositor, frame_update, luts,
+                    packed_tables, wiring)
 from .scene import sun as sun_lamps
 
 RESOLUTION_ITEMS = [("default", "Default", "The sample's 32 x 128 x 64 x 16 tables (~10-20 s)"),
@@ -253,6 +254,27 @@ class OLS_OT_measure_adaptation(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class OLS_OT_pack_tables(bpy.types.Operator):
+    """Store the scene's baked tables in the .blend (about 150 MB at the default resolution), so
+    that a render-farm worker renders it without baking"""
+    bl_idname = "ols.pack_tables"
+    bl_label = "Pack Tables"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None and bool(context.scene.get(wiring.WIRED_KEY))
+
+    def execute(self, context):
+        try:
+            size = packed_tables.pack(context.scene[wiring.WIRED_KEY])
+        except lut_gen.LutError as exc:
+            self.report({"ERROR"}, f"Cannot pack the tables: {exc}")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Packed {size / 2**20:.0f} MiB of tables; save the file to keep them")
+        return {"FINISHED"}
+
+
 # -- handlers ---------------------------------------------------------------------------------
 
 def _update_scene(scene):
@@ -345,7 +367,16 @@ def on_file_loaded(*_args):
             luts.verify_wired(key)
             continue
         except lut_gen.LutError as exc:
-            print(f"Outdoor Light Scattering: scene {scene.name!r}: {exc}; baking them again")
+            problem = exc
+        if packed_tables.is_packed(key):
+            try:
+                directory = packed_tables.restore(key)
+                print(f"Outdoor Light Scattering: scene {scene.name!r}: using the tables packed in the file "
+                      f"(written to {directory})")
+                continue
+            except (lut_gen.LutError, OSError) as exc:
+                problem = exc
+        print(f"Outdoor Light Scattering: scene {scene.name!r}: {problem}; baking them again")
         resolution = scene.get(wiring.RESOLUTION_KEY, "default")
         try:
             if bpy.app.background:
@@ -389,4 +420,4 @@ def unregister_handlers():
     wiring.forget_caches()
 
 
-CLASSES = (OLS_OT_bake_luts, OLS_OT_setup_scene, OLS_OT_render, OLS_OT_measure_adaptation)
+CLASSES = (OLS_OT_bake_luts, OLS_OT_setup_scene, OLS_OT_render, OLS_OT_measure_adaptation, OLS_OT_pack_tables)

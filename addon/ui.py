@@ -9,6 +9,7 @@ OPERATORS = (
     ("ols.bake_luts", "Bake Tables", 'FILE_REFRESH'),
     ("ols.render", "Render", 'RENDER_STILL'),
     ("ols.measure_adaptation", "Measure Light Adaptation", 'RENDER_ANIMATION'),
+    ("ols.pack_tables", "Pack Tables", 'PACKAGE'),
 )
 
 # Controls whose row is enabled only while a condition on the settings holds.

@@ -45,6 +45,11 @@ def regular_file_stat(path: Path) -> os.stat_result:
     return info
 
 
+def bytes_sha256(data: bytes) -> str:
+    """SHA-256 of bytes held in memory (a table packed in a .blend), as file_sha256 of a file."""
+    return hashlib.sha256(data).hexdigest()
+
+
 def file_sha256(path) -> str:
     """SHA-256 of a regular file's bytes (cached by device, inode, size and mtime)."""
     path = Path(path)
