@@ -13,13 +13,15 @@ import argparse
 import math
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import bpy
 
 from .. import lut_gen
 from . import ops, props
-from .scene import adaptation_plan, checks, luts, packed_tables
+from .progress_lines import ProgressLines, render_progress
+from .scene import adaptation, adaptation_plan, checks, luts, packed_tables
 from .scene import sun as sun_lamps
 from .scene import wiring
 
@@ -97,6 +99,7 @@ def prepare(args):
             raise BatchError(f"{args.blend} does not exist")
         bpy.ops.wm.open_mainfile(filepath=str(args.blend))
     if args.sample:
+        print("scene: building the sample terrain", flush=True)
         from importlib import util
         path = Path(__file__).resolve().parent.parent / "sample_blend" / "build_sample.py"
         spec = util.spec_from_file_location("ols_build_sample", path)
@@ -200,21 +203,30 @@ def render(scene, args):
                 raise BatchError(f"cannot measure the light adaptation: {exc}") from None
         scene.frame_start, scene.frame_end = frames
         scene.render.filepath = str(frame_pattern(output))
-        bpy.ops.render.render(animation=True)
+        if adaptation_plan.wanted(scene):
+            print("render: light adaptation reads each frame's luminance back through a 1-pixel EXR "
+                  "(the 'Saved: ...adapted_luminance_.exr' lines)")
+        with render_progress():
+            bpy.ops.render.render(animation=True)
         return [Path(scene.render.frame_path(frame=f)) for f in range(frames[0], frames[1] + 1)]
     scene.render.filepath = str(output)
-    bpy.ops.render.render(write_still=True)
+    with render_progress(), adaptation.without_read_back():
+        bpy.ops.render.render(write_still=True)
     return [output if output.suffix else output.with_name(output.name + ".png")]
 
 
 def wire(scene, args):
-    directory = ops.bake_if_needed(props.atmosphere_params(scene.ols).validate(), args.tables)
+    print("scene: baking or finding the tables", flush=True)
+    directory = ops.bake_if_needed(props.atmosphere_params(scene.ols).validate(), args.tables,
+                                   progress=ProgressLines("bake"))
+    print(f"scene: wiring it to the tables in {directory} (node groups, images, compositor)", flush=True)
     terrain = [o for o in scene.objects if o.select_get() and o.type == "MESH"]
     wiring.wire_scene(scene, directory, terrain, resolution=args.tables)
 
 
 def main(argv=None) -> int:
     args = parse_args(sys.argv[1:] if argv is None else argv)
+    start = time.perf_counter()
     try:
         if args.engine == "EEVEE" and not egl_available():
             raise BatchError("EEVEE needs EGL, which is missing here (Debian: apt install libegl1 "
@@ -246,5 +258,6 @@ def main(argv=None) -> int:
     if missing:
         print(f"error: Blender reported no error but did not write {', '.join(missing)}", file=sys.stderr)
         return 1
+    print(f"total time {time.perf_counter() - start:.0f} s")
     print("rendered " + " ".join(str(path) for path in written))
     return 0

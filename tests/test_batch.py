@@ -184,6 +184,13 @@ def test_script_entry_point_runs(tmp_path):
                             capture_output=True, text=True, timeout=600, env=env)
     assert result.returncode == 0, result.stderr[-2000:]
     assert out.read_bytes().startswith(b"\x89PNG")
+    # Progress, stage by stage, as plain lines (issue 11): the bake, the scene, the render, the total.
+    lines = result.stdout.splitlines()
+    for expected in ("scene: building the sample terrain", "bake: single scattering 100%", "scene: wiring",
+                     "render: frame 1: ", "render: frame 1 rendered and composited", "total time "):
+        assert any(line.startswith(expected) for line in lines), expected
+    assert lines[-1] == f"rendered {out}"
+    assert "adapted_luminance" not in result.stdout + result.stderr     # a still reads nothing back
 
 
 def test_output_format_follows_the_extension(batch, tmp_path, capsys):

@@ -141,39 +141,49 @@ def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=Fal
     x_s = sun_zenith_coordinate(g, gin.outputs["Cos Sun Zenith"], n_s)
     x_t = sun_view_coordinate(g, gin.outputs["Cos Sun View"], n_t)
 
-    def fetch(atlas, u_texel, v_texel, interpolation):
-        """Texture value at texel coordinates (pixel units, centres at +0.5)."""
-        uv = g.combine(g.div(u_texel, width), g.div(v_texel, height), 1.0)   # z: Map UV's alpha
-        return g.image(atlas, uv, interpolation=interpolation)
-
+    # Node indices, weights and texture coordinates are shared by both atlases: made once.
+    h_nodes = even_odd_nodes(g, x_h, n_h)
+    t_nodes = even_odd_nodes(g, x_t, n_t)
     s0, w_s = lower_node(g, x_s, n_s)
+    # v of sun-zenith row s0 + j in the tile row of height node k (texel centres at +0.5)
+    v_of = {(k, j): g.div(g.mul_add(i_h, n_s, g.add(s0, 0.5 + j)), height)
+            for k, (i_h, _) in enumerate(h_nodes) for j in (0, 1)}
     if filtering == "HARDWARE":
-        def row(atlas, i_h, i_t, j):
+        x_a_centre = g.add(x_a, 0.5)
+        u_of = {k: g.div(g.mul_add(i_t, n_a, x_a_centre), width) for k, (i_t, _) in enumerate(t_nodes)}
+        uv_of = {(kh, kt, j): g.combine(u_of[kt], v_of[kh, j], 1.0)         # z: Map UV's alpha
+                 for kh in (0, 1) for kt in (0, 1) for j in (0, 1)}
+
+        def row(atlas, kh, kt, j):
             """Sun-zenith node s0 + j of a tile, interpolated along the view zenith."""
-            return fetch(atlas, g.mul_add(i_t, n_a, g.add(x_a, 0.5)), g.mul_add(i_h, n_s, g.add(s0, 0.5 + j)), "Linear")
+            return g.image(atlas, uv_of[kh, kt, j], interpolation="Linear")
     else:
         a0, w_a = lower_node(g, x_a, n_a)
+        a_centre = g.add(a0, 0.5)
+        u_of = {(k, m): g.div(g.mul_add(i_t, n_a, g.add(a_centre, float(m))), width)
+                for k, (i_t, _) in enumerate(t_nodes) for m in (0, 1)}
+        uv_of = {(kh, kt, j, m): g.combine(u_of[kt, m], v_of[kh, j], 1.0)
+                 for kh in (0, 1) for kt in (0, 1) for j in (0, 1) for m in (0, 1)}
 
-        def row(atlas, i_h, i_t, j):
-            u0 = g.mul_add(i_t, n_a, g.add(a0, 0.5))
-            v = g.mul_add(i_h, n_s, g.add(s0, 0.5 + j))
-            return g.vlerp(fetch(atlas, u0, v, "Closest"), fetch(atlas, g.add(u0, 1.0), v, "Closest"), w_a)
+        def row(atlas, kh, kt, j):
+            return g.vlerp(g.image(atlas, uv_of[kh, kt, j, 0], interpolation="Closest"),
+                           g.image(atlas, uv_of[kh, kt, j, 1], interpolation="Closest"), w_a)
 
     def interpolated(atlas):
         """Linear along the view zenith and the sun-view angle, geometric along the sun zenith
         and the height (lut_gen.sampling.GEOMETRIC_AXES)."""
         at_height = []
-        for i_h, w_h in even_odd_nodes(g, x_h, n_h):
+        for kh in (0, 1):
             sun_rows = []
             for j in (0, 1):
                 total = None
-                for i_t, w_t in even_odd_nodes(g, x_t, n_t):
-                    term = g.vscale(row(atlas, i_h, i_t, j), w_t)
+                for kt, (_, w_t) in enumerate(t_nodes):
+                    term = g.vscale(row(atlas, kh, kt, j), w_t)
                     total = term if total is None else g.vmath("ADD", total, term)
                 sun_rows.append(total)
-            at_height.append((g.vgeometric_lerp(sun_rows[0], sun_rows[1], w_s), w_h))
-        (even, _), (odd, w_odd) = at_height     # the two weights sum to 1
-        return g.vgeometric_lerp(even, odd, w_odd)
+            at_height.append(g.vgeometric_lerp(sun_rows[0], sun_rows[1], w_s))
+        # even and odd height node; their weights sum to 1
+        return g.vgeometric_lerp(at_height[0], at_height[1], h_nodes[1][1])
 
     c_t = gin.outputs["Cos Sun View"]
     radiance = g.vscale(interpolated(image), g.mul(g.mul_add(c_t, c_t, 1.0), RAYLEIGH_PHASE_NORM))

@@ -34,7 +34,18 @@ FRAME_KEY = "ols_adapted_frame"          # ... the last frame rendered through t
 
 # This render job's stored plan (adaptation_plan.py), loaded once per job; and whether the
 # pre-pass is measuring (every frame unadapted).
-_job = {"plan": None, "measuring": False}
+_job = {"plan": None, "measuring": False, "read_back": True}
+
+
+@contextmanager
+def without_read_back():
+    """A still rendered from a script adapts to nothing after it: no luminance file is written
+    (and Blender prints no 'Saved: ...adapted_luminance_.exr' line)."""
+    _job["read_back"] = False
+    try:
+        yield
+    finally:
+        _job["read_back"] = True
 
 
 @contextmanager
@@ -185,6 +196,9 @@ def begin_render(scene):
     set the inputs for the first frame an animation renders (a still's render_pre corrects them)."""
     _, output = _nodes(scene)
     if output is None:
+        return
+    if not _job["read_back"]:
+        _park(output)
         return
     directory = output_directory(scene)
     os.makedirs(directory, exist_ok=True)
