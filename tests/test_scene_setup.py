@@ -325,3 +325,28 @@ def test_render_operator_paths(addon, tmp_path):
     render_path = module(addon, "addon.ops").render_path
     assert not bpy.data.filepath
     assert render_path("//ols_render.png") == __import__("pathlib").Path(tempfile.gettempdir()) / "ols_render.png"
+
+
+def test_terrain_keeps_a_textured_base_colour(addon):
+    """The terrain's own colour network (here a noise texture into the Principled BSDF's Base
+    Color) feeds the OLS Terrain group's Albedo; the user's material is left as it was."""
+    bpy.ops.wm.read_factory_settings()
+    scene = bpy.context.scene
+    cube = bpy.data.objects["Cube"]
+    mine = cube.active_material
+    tree = mine.node_tree
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    principled = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+    tree.links.new(noise.outputs["Color"], principled.inputs["Base Color"])
+    before = sorted(n.bl_idname for n in tree.nodes)
+    cube.select_set(True)
+    for _ in range(2):                                        # again: still one texture, still linked
+        assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+        ours = cube.active_material
+        group = ours.node_tree.nodes["OLS Terrain"]
+        assert group.inputs["Albedo"].links[0].from_node.bl_idname == "ShaderNodeTexNoise"
+        assert [n.bl_idname for n in ours.node_tree.nodes].count("ShaderNodeTexNoise") == 1
+        assert not any(n.type == "BSDF_PRINCIPLED" for n in ours.node_tree.nodes)
+    assert sorted(n.bl_idname for n in mine.node_tree.nodes) == before
+    module(addon, "addon.scene.wiring").unwire_scene(scene)
+    assert cube.active_material == mine

@@ -99,14 +99,6 @@ def match_engine(scene) -> bool:
     return True
 
 
-def _albedo_of(material):
-    if material is not None and material.node_tree is not None:
-        for node in material.node_tree.nodes:
-            if node.type == "BSDF_PRINCIPLED":
-                return tuple(node.inputs["Base Color"].default_value)
-    return (0.2, 0.2, 0.2, 1.0)
-
-
 def _group_into_output(tree, group_name: str, output_type: str, group_socket: str):
     """Replace ``tree``'s nodes (and drivers) by the named group feeding an output node."""
     drivers.remove_drivers(tree)
@@ -117,6 +109,42 @@ def _group_into_output(tree, group_name: str, output_type: str, group_socket: st
     output = tree.nodes.new(output_type)
     output.location = (300, 0)
     tree.links.new(group.outputs[group_socket], output.inputs["Surface"])
+    return group
+
+
+def _albedo_source(tree):
+    """(linked socket or None, colour) that feeds the surface colour: our group's Albedo when the
+    material is ours already, else the first Principled BSDF's Base Color."""
+    for node in tree.nodes:
+        if node.type == "GROUP" and node.node_tree is not None and node.node_tree.name == nodes.TERRAIN_GROUP:
+            socket = node.inputs["Albedo"]
+            break
+    else:
+        socket = next((n.inputs["Base Color"] for n in tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
+    if socket is None:
+        return None, (0.2, 0.2, 0.2, 1.0)
+    link = socket.links[0] if socket.is_linked else None
+    return (link.from_socket if link else None), tuple(socket.default_value)
+
+
+def _terrain_group_into(tree):
+    """Our terrain group feeding the material output, fed by the tree's albedo (_albedo_source);
+    shader and output nodes go, the nodes that make the colour stay."""
+    source, colour = _albedo_source(tree)
+    drivers.remove_drivers(tree)
+    for node in list(tree.nodes):
+        is_ours = node.type == "GROUP" and node.node_tree is not None and node.node_tree.name == nodes.TERRAIN_GROUP
+        if is_ours or node.type == "OUTPUT_MATERIAL" or isinstance(node, bpy.types.ShaderNodeBsdfPrincipled):
+            tree.nodes.remove(node)
+    group = tree.nodes.new("ShaderNodeGroup")
+    group.node_tree = bpy.data.node_groups[nodes.TERRAIN_GROUP]
+    group.name = nodes.TERRAIN_GROUP
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    output.location = (300, 0)
+    tree.links.new(group.outputs["Shader"], output.inputs["Surface"])
+    group.inputs["Albedo"].default_value = colour
+    if source is not None:
+        tree.links.new(source, group.inputs["Albedo"])
     return group
 
 
@@ -142,15 +170,19 @@ def wire_world(scene, sun, light_scene: float):
 
 
 def wire_terrain(obj, sun):
-    """Give ``obj`` an "OLS Terrain" material that keeps the albedo of its old material."""
+    """Give ``obj`` an "OLS Terrain" material that keeps the albedo of its old material: a copy of
+    it whose Principled BSDF is replaced by our group, fed by whatever fed its Base Color (a
+    texture network stays as it is)."""
     previous = obj.active_material
     if previous is not None and previous.get(GENERATED):
         material = previous             # set up again: rebuild ours, no "OLS Terrain X.001"
+    elif previous is not None and previous.node_tree is not None:
+        material = previous.copy()
+        material.name = f"{TERRAIN_MATERIAL} {obj.name}"
     else:
         material = bpy.data.materials.new(f"{TERRAIN_MATERIAL} {obj.name}")
     material.use_nodes = True
-    group = _group_into_output(material.node_tree, nodes.TERRAIN_GROUP, "ShaderNodeOutputMaterial", "Shader")
-    group.inputs["Albedo"].default_value = _albedo_of(previous)
+    group = _terrain_group_into(material.node_tree)
     drivers.drive_sun_direction(group.inputs["Sun Direction"], sun)
     drivers.drive_from_lamp(group.inputs["Sun Strength"], sun, "energy")
     for channel in range(3):
