@@ -215,25 +215,93 @@ def _ensure_node_tree(idblock) -> None:
             idblock.use_nodes = True
 
 
+# Ground covers (linear albedo): measured spectral albedos averaged to RGB, roughly (grass
+# 0.05-0.15, dry scrub 0.15-0.25, bare rock 0.15-0.3, old snow 0.6-0.8).
+GRASS_ALBEDO = (0.055, 0.085, 0.030, 1.0)
+SCRUB_ALBEDO = (0.150, 0.130, 0.080, 1.0)
+ROCK_ALBEDO = (0.200, 0.180, 0.160, 1.0)
+SNOW_ALBEDO = (0.700, 0.720, 0.760, 1.0)
+SNOW_LINE_M = 850.0            # snow lies above this on slopes flatter than ~35 deg
+ROCK_SLOPE_COS = (0.92, 0.80)  # from grass (cos slope above the first) to rock (below the second)
+
+
+def _socket(sockets, identifier):
+    return next(socket for socket in sockets if socket.identifier == identifier)
+
+
+def _mix_colour(tree, factor, a, b):
+    """A Mix node (colour) of sockets/values ``a`` and ``b`` by ``factor``; returns its output."""
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    for identifier, value in (("Factor_Float", factor), ("A_Color", a), ("B_Color", b)):
+        socket = _socket(mix.inputs, identifier)
+        if isinstance(value, bpy.types.NodeSocket):
+            tree.links.new(value, socket)
+        else:
+            socket.default_value = value
+    return _socket(mix.outputs, "Result_Color")
+
+
+def _map_range(tree, value, low, high):
+    """0 at ``low``, 1 at ``high`` (either order), smoothstep in between."""
+    node = tree.nodes.new("ShaderNodeMapRange")
+    node.interpolation_type = "SMOOTHSTEP"
+    tree.links.new(value, node.inputs["Value"])
+    node.inputs["From Min"].default_value, node.inputs["From Max"].default_value = low, high
+    return node.outputs["Result"]
+
+
 def _terrain_material() -> bpy.types.Material:
-    """The plain placeholder material (Principled BSDF, albedo ~0.2); the add-on replaces it."""
+    """Ground covers by slope and height from Blender's own procedural textures: grass and dry
+    scrub in the valley (mottled by noise), bare rock on steep slopes, snow on the high, flatter
+    ground. The colour feeds the Principled BSDF's Base Color, which the add-on's OLS Terrain
+    group takes over (it keeps this network)."""
     mat = bpy.data.materials.get(TERRAIN_MATERIAL_NAME)
     if mat is not None:
         return mat
     mat = bpy.data.materials.new(TERRAIN_MATERIAL_NAME)
     _ensure_node_tree(mat)
-    nodes = mat.node_tree.nodes
-    bsdf = next((n for n in nodes if n.type == "BSDF_PRINCIPLED"), None)
-    if bsdf is None:
-        nodes.clear()
-        bsdf = nodes.new("ShaderNodeBsdfPrincipled")
-        out = nodes.new("ShaderNodeOutputMaterial")
-        mat.node_tree.links.new(bsdf.outputs["BSDF"], out.inputs["Surface"])
-    albedo = (0.21, 0.20, 0.16, 1.0)  # greyish rock / dry grass, mean ~0.19
-    bsdf.inputs["Base Color"].default_value = albedo
+    tree = mat.node_tree
+    tree.nodes.clear()
+    bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
+    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    tree.links.new(bsdf.outputs["BSDF"], out.inputs["Surface"])
     bsdf.inputs["Roughness"].default_value = 0.9
     bsdf.inputs["Specular IOR Level"].default_value = 0.2
-    mat.diffuse_color = albedo        # viewport solid colour
+
+    geometry = tree.nodes.new("ShaderNodeNewGeometry")
+    normal = tree.nodes.new("ShaderNodeSeparateXYZ")
+    tree.links.new(geometry.outputs["Normal"], normal.inputs["Vector"])
+    position = tree.nodes.new("ShaderNodeSeparateXYZ")
+    tree.links.new(geometry.outputs["Position"], position.inputs["Vector"])
+    # Large patches (~300 m) and fine mottling (~20 m) break up every boundary.
+    patches, mottle = (tree.nodes.new("ShaderNodeTexNoise") for _ in range(2))
+    for noise, scale, detail in ((patches, 0.003, 4.0), (mottle, 0.05, 6.0)):
+        tree.links.new(geometry.outputs["Position"], noise.inputs["Vector"])
+        noise.inputs["Scale"].default_value = scale
+        noise.inputs["Detail"].default_value = detail
+    cover = _mix_colour(tree, _map_range(tree, patches.outputs["Fac"], 0.42, 0.62), GRASS_ALBEDO, SCRUB_ALBEDO)
+    cover = _mix_colour(tree, _map_range(tree, mottle.outputs["Fac"], 0.3, 0.7), cover,
+                        tuple(0.8 * c for c in SCRUB_ALBEDO[:3]) + (1.0,))
+    jitter = tree.nodes.new("ShaderNodeMath")                 # slope threshold wanders with the noise
+    jitter.operation = "MULTIPLY_ADD"
+    tree.links.new(mottle.outputs["Fac"], jitter.inputs[0])
+    jitter.inputs[1].default_value = 0.08
+    tree.links.new(normal.outputs["Z"], jitter.inputs[2])
+    rock = _map_range(tree, jitter.outputs[0], ROCK_SLOPE_COS[0] + 0.04, ROCK_SLOPE_COS[1] + 0.04)
+    ground = _mix_colour(tree, rock, cover, ROCK_ALBEDO)
+    high = tree.nodes.new("ShaderNodeMath")
+    high.operation = "MULTIPLY_ADD"                           # a ragged snow line
+    tree.links.new(patches.outputs["Fac"], high.inputs[0])
+    high.inputs[1].default_value = 250.0
+    tree.links.new(position.outputs["Z"], high.inputs[2])
+    flat = _map_range(tree, normal.outputs["Z"], 0.72, 0.85)
+    snow = tree.nodes.new("ShaderNodeMath")
+    snow.operation = "MULTIPLY"
+    tree.links.new(_map_range(tree, high.outputs[0], SNOW_LINE_M + 125.0, SNOW_LINE_M + 225.0), snow.inputs[0])
+    tree.links.new(flat, snow.inputs[1])
+    tree.links.new(_mix_colour(tree, snow.outputs[0], ground, SNOW_ALBEDO), bsdf.inputs["Base Color"])
+    mat.diffuse_color = ROCK_ALBEDO       # viewport solid colour
     mat.roughness = 0.9
     return mat
 

@@ -109,12 +109,15 @@ def test_terrain_extent_heights_and_mesh(fresh_scene):
     smooth = np.empty(len(mesh.polygons), dtype=bool)
     mesh.polygons.foreach_get("use_smooth", smooth)
     assert smooth.all()
-    # Placeholder material.
+    # Ground covers by slope and height: a procedural network feeds the Base Color, with
+    # physically plausible albedos (grass 0.06 ... snow 0.73).
     mat = mesh.materials[0]
     assert mat.name == "OLS Terrain Base"
     bsdf = next(n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
-    albedo = np.array(bsdf.inputs["Base Color"].default_value[:3])
-    assert 0.12 <= albedo.mean() <= 0.3
+    assert bsdf.inputs["Base Color"].is_linked
+    assert sum(n.bl_idname == "ShaderNodeTexNoise" for n in mat.node_tree.nodes) >= 1
+    for cover in (bs.GRASS_ALBEDO, bs.SCRUB_ALBEDO, bs.ROCK_ALBEDO, bs.SNOW_ALBEDO):
+        assert 0.03 <= np.mean(cover[:3]) <= 0.8
     # Helper agrees with the vertices.
     h = bs.terrain_heights(terrain)
     assert h.shape == (256, 256)
