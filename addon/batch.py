@@ -26,6 +26,16 @@ from .scene import sun as sun_lamps
 from .scene import wiring
 
 ENGINES = {"CYCLES": "CYCLES", "EEVEE": "BLENDER_EEVEE"}
+# Looks for the sample scene (and any scene): sun (elevation, azimuth from +Y toward +X, in degrees)
+# and the tone mapping's middle gray. The sample camera looks along +Y: azimuths near 0 put the
+# sun ahead, behind the ridge, so its shafts come toward the camera at a low sun.
+PRESETS = {
+    "noon": dict(sun_elevation=60.0, sun_azimuth=150.0, middle_gray=0.18),
+    "golden-hour": dict(sun_elevation=8.0, sun_azimuth=40.0, middle_gray=0.18),
+    "sunset": dict(sun_elevation=1.5, sun_azimuth=20.0, middle_gray=0.16),
+    "blue-hour": dict(sun_elevation=-4.0, sun_azimuth=20.0, middle_gray=0.10),
+}
+
 # --output's extension picks the format; no extension writes PNG and adds ".png".
 FORMATS = {"": "PNG", ".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".tif": "TIFF", ".tiff": "TIFF",
            ".exr": "OPEN_EXR"}
@@ -63,6 +73,8 @@ def parse_args(argv):
     parser.add_argument("--engine", choices=sorted(ENGINES), default="CYCLES")
     parser.add_argument("--resolution", default=None, help="WIDTHxHEIGHT (default: the scene's)")
     parser.add_argument("--samples", type=_positive_int, default=None, help="render samples (default: the scene's)")
+    parser.add_argument("--preset", choices=sorted(PRESETS), default=None,
+                        help="a look: sun and exposure (explicit --sun-elevation / --sun-azimuth win)")
     parser.add_argument("--sun-elevation", type=_finite_float, default=None, help="degrees above the horizon")
     parser.add_argument("--sun-azimuth", type=_finite_float, default=None, help="degrees from +Y toward +X")
     parser.add_argument("--pack", action="store_true",
@@ -135,6 +147,13 @@ def apply_options(scene, args):
         else:
             scene.eevee.taa_render_samples = args.samples
     sun = sun_lamps.find_sun(scene)
+    if args.preset:
+        look = PRESETS[args.preset]
+        scene.ols.middle_gray = look["middle_gray"]
+        if args.sun_elevation is None:
+            args.sun_elevation = look["sun_elevation"]
+        if args.sun_azimuth is None:
+            args.sun_azimuth = look["sun_azimuth"]
     if args.sun_elevation is not None or args.sun_azimuth is not None:
         direction = sun_lamps.direction_to_sun(sun)
         elevation = math.degrees(math.asin(max(-1.0, min(1.0, direction[2]))))

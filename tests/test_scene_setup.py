@@ -350,3 +350,24 @@ def test_terrain_keeps_a_textured_base_colour(addon):
     assert sorted(n.bl_idname for n in mine.node_tree.nodes) == before
     module(addon, "addon.scene.wiring").unwire_scene(scene)
     assert cube.active_material == mine
+
+
+@pytest.mark.parametrize("elevation", [1.5, 30.0])
+def test_terrain_gets_the_lamps_exact_colour_at_a_low_sun(addon, elevation):
+    """At sun 1.5 deg the lamp's blue is 4.6e-5; drivers wrote it as 0 and the terrain, which
+    divides by it, turned violet. The group must see the lamp's colour in every channel."""
+    build = load_sample_builder()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    objects = build.build_sample_scene(bpy.context.scene, elevation_deg=15.0, azimuth_deg=35.0, resolution=32)
+    scene = bpy.context.scene
+    for obj in scene.objects:
+        obj.select_set(obj == objects["terrain"])
+    assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+    module(addon, "addon.scene.sun").set_sun_angles(objects["sun"], elevation, 20.0)
+    bpy.context.view_layer.update()
+    lamp = np.array(objects["sun"].data.color)
+    assert lamp.min() > 0
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    material = objects["terrain"].active_material.evaluated_get(depsgraph)
+    seen = np.array(material.node_tree.nodes["OLS Terrain"].inputs["Origin Transmittance"].default_value[:3])
+    np.testing.assert_allclose(seen, lamp, rtol=1e-5)

@@ -148,6 +148,17 @@ def _terrain_group_into(tree):
     return group
 
 
+def set_origin_transmittance(group, colour):
+    """The terrain group's "Origin Transmittance" = the lamp's colour, written by the handlers
+    with the colour itself. Not a driver: Blender 5.0 drivers write values under about 1e-4 as
+    0 (the blue of a sun 1.5 deg up is 4.6e-5), and the terrain divided by that floor: its
+    mountains turned violet at sunset."""
+    socket = group.inputs["Origin Transmittance"]
+    wanted = (*colour[:3], 1.0)
+    if any(abs(a - b) > 1e-6 * max(abs(b), 1e-12) for a, b in zip(socket.default_value, wanted)):
+        socket.default_value = wanted
+
+
 def wire_world(scene, sun, light_scene: float):
     world = bpy.data.worlds.get(WORLD_NAME) or bpy.data.worlds.new(WORLD_NAME)
     if scene.world is not None and scene.world != world:
@@ -185,8 +196,7 @@ def wire_terrain(obj, sun):
     group = _terrain_group_into(material.node_tree)
     drivers.drive_sun_direction(group.inputs["Sun Direction"], sun)
     drivers.drive_from_lamp(group.inputs["Sun Strength"], sun, "energy")
-    for channel in range(3):
-        drivers.drive_from_lamp(group.inputs["Origin Transmittance"], sun, f"color[{channel}]", index=channel)
+    set_origin_transmittance(group, sun.data.color)
     material[GENERATED] = True
     if previous is not None and not previous.get(GENERATED):
         obj[PREVIOUS_MATERIAL] = previous.name
@@ -287,6 +297,10 @@ def refresh(scene, force=False):
     if info is None or sun is None:
         return
     sun_lamps.update_sun_colour(sun, info.origin_transmittance)
+    for material in bpy.data.materials:
+        group = material.node_tree.nodes.get(nodes.TERRAIN_GROUP) if material.get(GENERATED) and material.node_tree else None
+        if group is not None:
+            set_origin_transmittance(group, sun.data.color)
     compositor.sync_settings(scene)
     frame_update.write_frame_values(scene)
     height = scene.camera.matrix_world.translation.z if scene.camera else 0.0
