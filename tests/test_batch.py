@@ -213,3 +213,34 @@ def test_frames_without_hashes_are_numbered_and_listed(batch, tmp_path, capsys):
     assert sorted(tmp_path.glob("shot*")) == written
     assert capsys.readouterr().out.strip().splitlines()[-1] == "rendered " + " ".join(map(str, written))
     assert written[0].read_bytes()[:2] == b"\xff\xd8"
+
+
+def read_png(path):
+    image = bpy.data.images.load(str(path))
+    image.colorspace_settings.name = "Non-Color"                 # the stored display values
+    width, height = image.size
+    pixels = np.array(image.pixels[:]).reshape(height, width, 4)[::-1, :, :3]
+    bpy.data.images.remove(image)
+    return pixels
+
+
+def test_gallery_preset_is_a_real_landscape(batch, tmp_path):
+    """The README gallery's golden-hour preset at 160 x 90: not flat, not clipped, no NaN, sky
+    above terrain (issue 11)."""
+    png, exr = tmp_path / "golden.png", tmp_path / "golden.exr"
+    for out in (png, exr):
+        assert batch.main(["--sample", "--tables", "draft", "--preset", "golden-hour", "--resolution", "160x90",
+                           "--samples", "4", "--output", str(out)]) == 0
+    import OpenEXR
+    with OpenEXR.File(str(exr)) as f:
+        linear = np.asarray(f.channels()["RGBA"].pixels[..., :3] if "RGBA" in f.channels()
+                            else f.channels()["RGB"].pixels)
+    assert np.isfinite(linear).all() and linear.min() >= 0
+    display = read_png(png)
+    luminance = display @ np.array([0.2126, 0.7152, 0.0722])
+    assert luminance.std() > 0.05                                   # not flat
+    assert np.mean(display.max(axis=-1) >= 254 / 255) < 0.02        # under 2% clipped
+    sky, ground = display[:15], display[-15:]
+    assert sky.mean() > ground.mean() + 0.1                         # a bright sky over darker land
+    assert ground.mean() > 0.05                                     # the terrain is lit, not black
+    assert sky[..., 2].mean() > sky[..., 0].mean() * 0.8            # no colour cast gone wild

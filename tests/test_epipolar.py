@@ -147,7 +147,10 @@ def test_without_occluders_epipolar_equals_the_unshadowed_result(draft_luts):
     scene = Scene([], CAMERA, sun_at(5.0, 0.0), 64, 36)
     epi = scene.shafts(draft_luts, scattering_technique="EPIPOLAR_SAMPLING", num_integration_steps=16)
     plain = scene.shafts(draft_luts, enable_light_shafts=False)
-    np.testing.assert_allclose(epi, plain, rtol=1e-4, atol=1e-9)
+    # Not to float precision: the plain pass looks up the "multiple" table, the shafts its parts
+    # "single" and "higher", and geometric blending (lut_gen.sampling.GEOMETRIC_AXES) is not
+    # additive. Measured: max 3.8e-4 relative.
+    np.testing.assert_allclose(epi, plain, rtol=1e-3, atol=1e-9)
 
 
 def test_in_full_shadow_only_the_multiple_scattering_share_remains(draft_luts):
