@@ -119,3 +119,11 @@ def test_readme_python_api_names_exist():
                     target = getattr(target, name)
                 checked += 1
     assert checked >= 10
+
+
+def test_gallery_images_exist_and_are_small():
+    text = README.read_text()
+    for preset in ("noon", "golden-hour", "sunset", "blue-hour"):
+        path = ROOT / "docs" / "gallery" / f"{preset}.png"
+        assert f"docs/gallery/{preset}.png" in text and f"--preset {preset}" in text
+        assert path.read_bytes().startswith(b"\x89PNG") and path.stat().st_size < 300_000, path
