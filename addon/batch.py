@@ -242,6 +242,7 @@ def wire(scene, args):
     print(f"scene: wiring it to the tables in {directory} (node groups, images, compositor)", flush=True)
     terrain = [o for o in scene.objects if o.select_get() and o.type == "MESH"]
     wiring.wire_scene(scene, directory, terrain, resolution=args.tables)
+    print("scene: wired; preparing the render", flush=True)
 
 
 def main(argv=None) -> int:

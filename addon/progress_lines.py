@@ -4,6 +4,7 @@ stage, so a long bake or render is never silent for more than about 5 s."""
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from contextlib import contextmanager
 
@@ -20,10 +21,13 @@ class ProgressLines:
         self.start = time.perf_counter()
         self.last = -float("inf")           # the first line comes at once
         self.stage = None
+        self._lock = threading.Lock()
 
     def line(self, text: str, force: bool = False):
-        now = time.perf_counter()
-        if force or now - self.last >= self.interval:
+        with self._lock:                    # the render heartbeat calls from its own thread
+            now = time.perf_counter()
+            if not (force or now - self.last >= self.interval):
+                return
             self.last = now
             print(f"{self.prefix}: {text} ({now - self.start:.0f} s)", file=self.stream, flush=True)
 
@@ -42,12 +46,21 @@ def render_summary(stats: str) -> str:
 @contextmanager
 def render_progress(stream=None):
     """Print render progress (Cycles and EEVEE report it through render_stats) while the block
-    runs, and one line per frame finished."""
+    runs, and one line per frame finished. render_stats comes only now and then in background
+    renders (every ~30 s at 960 x 540 on 2 cores), so a thread repeats the last state every
+    INTERVAL_S (the render releases Python while it works)."""
     lines = ProgressLines("render", stream=stream)
+    latest = {"text": "starting (shadow maps, scene sync)"}
+    done = threading.Event()
 
     def on_stats(stats, *_args):
         frame = bpy.context.scene.frame_current if bpy.context.scene else "?"
-        lines.line(f"frame {frame}: {render_summary(stats)}")
+        latest["text"] = f"frame {frame}: {render_summary(stats)}"
+        lines.line(latest["text"])
+
+    def heartbeat():
+        while not done.wait(1.0):
+            lines.line(f"{latest['text']} (last report; still working)")
 
     def on_frame_done(scene, *_args):
         lines.line(f"frame {scene.frame_current} rendered and composited", force=True)
@@ -55,9 +68,13 @@ def render_progress(stream=None):
     handlers = ((bpy.app.handlers.render_stats, on_stats), (bpy.app.handlers.render_post, on_frame_done))
     for handler_list, function in handlers:
         handler_list.append(function)
+    thread = threading.Thread(target=heartbeat, name="ols render progress", daemon=True)
+    thread.start()
     try:
         yield lines
     finally:
+        done.set()
+        thread.join()
         for handler_list, function in handlers:
             if function in handler_list:
                 handler_list.remove(function)
