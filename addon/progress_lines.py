@@ -55,8 +55,9 @@ def render_progress(stream=None):
 
     def on_stats(stats, *_args):
         frame = bpy.context.scene.frame_current if bpy.context.scene else "?"
-        latest["text"] = f"frame {frame}: {render_summary(stats)}"
-        lines.line(latest["text"])
+        first = latest.get("frame") != frame          # each frame's first report comes at once
+        latest["frame"], latest["text"] = frame, f"frame {frame}: {render_summary(stats)}"
+        lines.line(latest["text"], force=first)
 
     def heartbeat():
         while not done.wait(1.0):
