@@ -172,6 +172,7 @@ def output_format(output: Path) -> str:
 
 def set_output_format(scene, file_format: str):
     settings = scene.render.image_settings
+    settings.media_type = "IMAGE"           # Blender 5.0: a multilayer scene would refuse the format
     settings.file_format = file_format
     if file_format == "OPEN_EXR":
         settings.color_depth = "32"         # scene-linear radiance, full float

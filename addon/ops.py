@@ -316,6 +316,7 @@ def _update_frame(scene, depsgraph):
     if not scene.get(wiring.WIRED_KEY):
         return
     compositor.sync_settings(scene)     # e.g. the output format: OpenEXR saves scene-linear
+    compositor.sync_layers_output(scene, rendering=True)
     try:
         wiring.match_light_shaft_layout(scene)
         if frame_update.update_frame(scene, depsgraph):
@@ -346,6 +347,9 @@ def on_render_init(*_args):
 @persistent
 def on_render_end(*_args):
     frame_update.set_rendering(False)
+    for scene in bpy.data.scenes:
+        if scene.get(wiring.WIRED_KEY):
+            compositor.sync_layers_output(scene, rendering=False)
 
 
 @persistent

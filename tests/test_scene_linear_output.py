@@ -86,6 +86,7 @@ def test_blender_view_transform_operator(addon_package, wired, tmp_path):
     scene.ols.tone_map_exr = True
     exposed = render_rgb(scene, tmp_path / "exposed.exr", composite=True)
     scene.ols.tone_map_exr = False
+    scene.render.image_settings.media_type = "IMAGE"
     linear = render_rgb(scene, tmp_path / "linear.exr", composite=True)
     want = twin.tone_map(linear, "BLENDER_VIEW", average_luminance=twin.log_average_luminance(linear))
     np.testing.assert_allclose(exposed, want, rtol=2e-3, atol=1e-6)
@@ -99,3 +100,43 @@ def test_blender_view_transform_operator(addon_package, wired, tmp_path):
     assert scene.view_settings.view_transform == "Standard"
     wiring.unwire_scene(scene)
     assert scene.view_settings.view_transform == "Filmic"
+
+
+def read_layers(path):
+    """{layer: (h, w, 3)} of a multilayer (multi-part) EXR."""
+    import OpenEXR
+    layers = {}
+    with OpenEXR.File(str(path)) as exr:
+        for part in exr.parts:
+            for name, channel in part.channels.items():
+                pixels = np.asarray(channel.pixels, dtype=np.float64)
+                if pixels.ndim == 3:
+                    layers[name] = pixels[..., :3]
+    return layers
+
+
+def test_multilayer_exr_carries_the_atmosphere_layers(addon_package, wired, tmp_path):
+    """beauty = surface x transmittance + inscattering + shafts, beside a multilayer EXR render."""
+    scene = wired
+    scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"     # Blender 5.0: before the format
+    scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER"
+    scene.render.image_settings.color_depth = "32"
+    scene.render.use_compositing = True
+    scene.render.filepath = str(tmp_path / "shot.exr")
+    bpy.ops.render.render(write_still=True)
+    written = sorted(tmp_path.glob("shot_atmosphere_*.exr"))
+    assert len(written) == 1, sorted(p.name for p in tmp_path.iterdir())
+    layers = read_layers(written[0])
+    assert set(layers) >= {"Beauty", "Surface", "Transmittance", "Inscattering", "Shafts"}, set(layers)
+    beauty = layers["Beauty"]
+    rebuilt = layers["Surface"] * layers["Transmittance"] + layers["Inscattering"] + layers["Shafts"]
+    np.testing.assert_allclose(rebuilt, beauty, rtol=1e-4, atol=1e-6)
+    assert layers["Inscattering"].max() > 1e-3 and layers["Transmittance"].min() < 0.99   # the air shows
+    assert np.abs(layers["Shafts"]).max() > 0                                           # shafts on
+    # The beauty layer is the scene-linear image the EXR itself holds.
+    scene.render.image_settings.media_type = "IMAGE"
+    linear = render_rgb(scene, tmp_path / "linear.exr", composite=True)
+    np.testing.assert_allclose(beauty, linear, rtol=1e-5, atol=1e-7)
+    # Parked after the render: muted and holding no folder.
+    node = scene.compositing_node_group.nodes["OLS Atmosphere Layers"]
+    assert node.mute and node.directory == ""

@@ -33,16 +33,24 @@ INPUTS = PASS_INPUTS + [
 
 def build_aerial_group(optical_depth_image, params):
     tree = new_group(GROUP_NAME, "CompositorNodeTree")
-    g, gin, gout = group_io(tree, INPUTS, [("Image", "NodeSocketColor", None)])
+    g, gin, gout = group_io(tree, INPUTS, [("Image", "NodeSocketColor", None),
+                                           ("Transmittance", "NodeSocketColor", None),
+                                           ("Inscattering", "NodeSocketColor", None)])
     camera, point = gin.outputs["Camera Position"], gin.outputs["Position"]
     sun = g.vmath("NORMALIZE", gin.outputs["Sun Direction"])
     view = g.vmath("NORMALIZE", g.vmath("SUBTRACT", point, camera))
     transmittance = segment_transmittance_node(g, camera, point, view)
     inscatter = section_node(g, "multiple", camera, point, view, sun, None, transmittance)
     air_light = g.vscale(inscatter, g.mul(gin.outputs["Sun Strength"], gin.outputs["Scattering Scale"]))
-    surface = g.vscale(g.vmath("MULTIPLY", gin.outputs["Image"], transmittance), g.sub(1.0, gin.outputs["Lighting Only"]))
-    seen = g.vmath("ADD", surface, air_light)
     geometry = g.mul(g.math("LESS_THAN", gin.outputs["Depth"], gin.outputs["Sky Depth"]), gin.outputs["Enable"])
-    result = g.vlerp(gin.outputs["Image"], seen, geometry)
+    # The layers of issue 10's multilayer EXR, and the image made from them so that
+    # Image = render x Transmittance + Inscattering holds to float precision. Sky pixels (and
+    # Enable off) pass through: transmittance 1, nothing in-scattered.
+    kept = g.vscale(transmittance, g.sub(1.0, gin.outputs["Lighting Only"]))
+    layer_transmittance = g.vlerp((1.0, 1.0, 1.0), kept, geometry)
+    layer_inscattering = g.vscale(air_light, geometry)
+    result = g.vmath("ADD", g.vmath("MULTIPLY", gin.outputs["Image"], layer_transmittance), layer_inscattering)
     g.links.new(g.with_alpha_of(gin.outputs["Image"], result), gout.inputs["Image"])
+    g.links.new(layer_transmittance, gout.inputs["Transmittance"])
+    g.links.new(layer_inscattering, gout.inputs["Inscattering"])
     return tree

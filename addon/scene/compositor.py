@@ -11,6 +11,9 @@ Settings reach the groups' inputs here (sync_settings); per-frame values (camera
 cascades) go through images, see frame_update."""
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import bpy
 import numpy as np
 
@@ -25,6 +28,10 @@ LAYERS_NODE = "OLS Render Layers"
 SHAFTS_NODE = "OLS Light Shafts"
 FRAME_NODE = "OLS Frame Values"
 FRAME_IMAGE = "OLS Frame Values"
+ATMOSPHERE_NODE = "OLS Atmosphere Layers"  # File Output: the layers of a multilayer EXR render
+SHAFTS_LAYER_NODE = "OLS Shafts Layer"
+LAYERS_SUFFIX = "_atmosphere_"
+LAYER_NAMES = ("Beauty", "Surface", "Transmittance", "Inscattering", "Shafts")
 PREVIOUS_PASSES = "ols_previous_passes"
 CREATED_TREE = "ols_created_compositor"
 PREVIOUS_VIEW = "ols_previous_view_transform"
@@ -153,6 +160,7 @@ def link_light_shafts(scene):
     tree.links.new(shafts.outputs["Image"], tone.inputs["Image"])
     tree.links.new(layers.outputs["Position"], shafts.inputs["Position"])
     tree.links.new(layers.outputs["Depth"], shafts.inputs["Depth"])
+    _ensure_layers_output(tree, layers, aerial, shafts, tone)
     frame = tree.nodes.get(FRAME_NODE)
     if frame is None:
         frame = tree.nodes.new("CompositorNodeGroup")
@@ -168,8 +176,75 @@ def link_light_shafts(scene):
                 tree.links.new(output, target.inputs[output.name])
 
 
+def _ensure_layers_output(tree, layers, aerial, shafts, tone):
+    """Our File Output node for the atmosphere layers (parked until a multilayer EXR render):
+    beauty = surface x transmittance + inscattering + shafts, all before the tone mapping."""
+    node = tree.nodes.get(ATMOSPHERE_NODE)
+    if node is None:
+        node = tree.nodes.new("CompositorNodeOutputFile")
+        node.name = node.label = ATMOSPHERE_NODE
+        node.location = (tone.location.x, tone.location.y - 400)
+        node.format.media_type = "MULTI_LAYER_IMAGE"
+        node.format.file_format = "OPEN_EXR_MULTILAYER"
+        node.format.color_depth = "32"
+        node.format.exr_codec = "ZIP"
+        for name in LAYER_NAMES:
+            node.file_output_items.new("RGBA", name)
+        _park_layers(node)
+    difference = tree.nodes.get(SHAFTS_LAYER_NODE)
+    if difference is None:
+        difference = tree.nodes.new("ShaderNodeVectorMath")
+        difference.name = difference.label = SHAFTS_LAYER_NODE
+        difference.operation = "SUBTRACT"
+        difference.location = (tone.location.x - 100, tone.location.y - 400)
+    tree.links.new(shafts.outputs["Image"], difference.inputs[0])
+    tree.links.new(aerial.outputs["Image"], difference.inputs[1])
+    sources = {"Beauty": shafts.outputs["Image"], "Surface": layers.outputs["Image"],
+               "Transmittance": aerial.outputs["Transmittance"], "Inscattering": aerial.outputs["Inscattering"],
+               "Shafts": difference.outputs["Vector"]}
+    for name, socket in sources.items():
+        tree.links.new(socket, node.inputs[name])
+
+
+def _park_layers(node):
+    """Outside multilayer EXR renders: muted, no folder (no absolute path in a saved .blend)."""
+    if not node.mute:
+        node.mute = True
+    if node.directory:
+        node.directory = ""
+
+
+def layers_path(scene):
+    """(folder, file name prefix) of the atmosphere layers beside the render's own output."""
+    output = Path(bpy.path.abspath(scene.render.filepath))
+    folder, stem = (output, "") if scene.render.filepath.endswith(("/", "\\")) else (output.parent, output.name)
+    stem = Path(stem).stem if Path(stem).suffix.lower() == ".exr" else stem
+    return str(folder) + os.sep, stem.rstrip("#_") + LAYERS_SUFFIX
+
+
+def sync_layers_output(scene, rendering: bool):
+    """Unpark the layers node for a multilayer EXR render, park it otherwise."""
+    tree = scene.compositing_node_group
+    node = tree.nodes.get(ATMOSPHERE_NODE) if tree is not None else None
+    if node is None:
+        return
+    if not (rendering and scene.render.image_settings.file_format == "OPEN_EXR_MULTILAYER"):
+        _park_layers(node)
+        return
+    folder, name = layers_path(scene)
+    if node.directory != folder:
+        node.directory = folder
+    if node.file_name != name:
+        node.file_name = name
+    if node.mute:
+        node.mute = False
+
+
 def unwire_compositor(scene):
     tree = scene.compositing_node_group
+    for name in (ATMOSPHERE_NODE, SHAFTS_LAYER_NODE):
+        if tree is not None and tree.nodes.get(name) is not None:
+            tree.nodes.remove(tree.nodes[name])
     if tree is not None and tree.nodes.get(FRAME_NODE) is not None:
         tree.nodes.remove(tree.nodes[FRAME_NODE])
     if tree is not None and tree.nodes.get(SHAFTS_NODE) is not None:
