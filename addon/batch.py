@@ -95,6 +95,10 @@ def parse_args(argv):
     return args
 
 
+EGL_NOTE = ("EGL probe: using EGL for EEVEE's headless GPU context; Blender may print "
+            "'EGL Error (0x3009): EGL_BAD_MATCH' while it tries configurations: harmless")
+
+
 def egl_available() -> bool:
     """EEVEE aborts the whole process without EGL: probe it in a throw-away process."""
     probe = ("import bpy; s=bpy.context.scene; s.render.engine='BLENDER_EEVEE'; "
@@ -250,9 +254,11 @@ def main(argv=None) -> int:
     args = parse_args(sys.argv[1:] if argv is None else argv)
     start = time.perf_counter()
     try:
-        if args.engine == "EEVEE" and not egl_available():
-            raise BatchError("EEVEE needs EGL, which is missing here (Debian: apt install libegl1 "
-                             "libegl-mesa0 libgl1-mesa-dri); use --engine CYCLES")
+        if args.engine == "EEVEE":
+            if not egl_available():
+                raise BatchError("EEVEE needs EGL, which is missing here (Debian: apt install libegl1 "
+                                 "libegl-mesa0 libgl1-mesa-dri); use --engine CYCLES")
+            print(EGL_NOTE, flush=True)
         scene = prepare(args)
         if scene.get(wiring.WIRED_KEY):
             # A wired file: its tables were re-baked on load where they were missing or damaged

@@ -47,6 +47,11 @@ def test_eevee_without_egl_is_reported(batch, tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(batch, "egl_available", lambda: False)
     assert batch.main(["--sample", "--engine", "EEVEE", "--output", str(tmp_path / "o.png")]) == 1
     assert "EEVEE needs EGL" in error_line(capsys)
+    # With EGL, one line explains the EGL_BAD_MATCH noise EEVEE prints (issue 11).
+    monkeypatch.setattr(batch, "egl_available", lambda: True)
+    assert batch.main(["--blend", str(tmp_path / "missing.blend"), "--engine", "EEVEE",
+                       "--output", str(tmp_path / "o.png")]) == 1
+    assert capsys.readouterr().out.startswith("EGL probe: using EGL")
 
 
 def test_damaged_cached_tables_are_baked_again(batch, tmp_path, addon_package):
