@@ -47,19 +47,6 @@ def pack(key: str) -> int:
     return sum(image.packed_file.size for image in images.values())
 
 
-def unpack_all(key: str) -> None:
-    """Drop the packed bytes (the images read their files in the cache again)."""
-    directory = luts.verify_wired(key)
-    for table, image in _images(key).items():
-        if image is not None and image.packed_file is not None:
-            image.unpack(method="REMOVE")
-            image.filepath_raw = str(directory / FILES[table])
-            image.reload()
-    images = _images(key)
-    if images["multiple"] is not None and MANIFEST_PROP in images["multiple"]:
-        del images["multiple"][MANIFEST_PROP]
-
-
 def _write_bake(directory: Path, key: str, images: dict, text: str) -> None:
     directory.mkdir(parents=True, exist_ok=True)
     for table, image in images.items():
