@@ -223,17 +223,21 @@ class OLS_OT_render(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class OLS_OT_measure_adaptation(bpy.types.Operator):
+class _OnWiredScene:
+    """Operators that act on a scene Set Up Scene has wired."""
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None and bool(context.scene.get(wiring.WIRED_KEY))
+
+
+class OLS_OT_measure_adaptation(_OnWiredScene, bpy.types.Operator):
     """Measure the light adaptation of every frame in a quick low-resolution pre-pass and store it
     in the scene, so that frames rendered in separate processes (a render farm's chunks) adapt as
     in one job"""
     bl_idname = "ols.measure_adaptation"
     bl_label = "Measure Light Adaptation"
     bl_options = {"REGISTER", "UNDO"}
-
-    @classmethod
-    def poll(cls, context):
-        return context.scene is not None and bool(context.scene.get(wiring.WIRED_KEY))
 
     def execute(self, context):
         scene = context.scene
@@ -254,16 +258,12 @@ class OLS_OT_measure_adaptation(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class OLS_OT_pack_tables(bpy.types.Operator):
+class OLS_OT_pack_tables(_OnWiredScene, bpy.types.Operator):
     """Store the scene's baked tables in the .blend (about 150 MB at the default resolution), so
     that a render-farm worker renders it without baking"""
     bl_idname = "ols.pack_tables"
     bl_label = "Pack Tables"
     bl_options = {"REGISTER", "UNDO"}
-
-    @classmethod
-    def poll(cls, context):
-        return context.scene is not None and bool(context.scene.get(wiring.WIRED_KEY))
 
     def execute(self, context):
         try:

@@ -25,6 +25,7 @@ from bpy.app.handlers import persistent
 
 from ...lut_gen import exr_min
 from ..post import tone_mapping as twin
+from .file_outputs import new_file_output, park
 
 TONE_NODE = "OLS Tone Mapping"          # compositor.NODE_NAME (not imported: compositor imports us)
 OUTPUT_NODE = "OLS Adapted Luminance"
@@ -97,28 +98,13 @@ def ensure_output_node(tree, tone_node):
     """Our File Output node, fed by the tone-mapping group's "Adapted Luminance" (idempotent)."""
     node = tree.nodes.get(OUTPUT_NODE)
     if node is None:
-        node = tree.nodes.new("CompositorNodeOutputFile")
-        node.name = node.label = OUTPUT_NODE
-        node.location = (tone_node.location.x, tone_node.location.y - 200)
-        node.format.media_type = "IMAGE"
-        node.format.file_format = "OPEN_EXR"
-        node.format.color_depth = "32"
-        node.format.exr_codec = "NONE"
-        node.format.color_mode = "BW"
+        node = new_file_output(tree, OUTPUT_NODE, (tone_node.location.x, tone_node.location.y - 200),
+                               media_type="IMAGE", file_format="OPEN_EXR", exr_codec="NONE",
+                               items=[("FLOAT", "")], color_mode="BW")
         node.file_name = OUTPUT_FILE
-        node.file_output_items.new("FLOAT", "")
-        _park(node)
     if not node.inputs[0].is_linked:
         tree.links.new(tone_node.outputs["Adapted Luminance"], node.inputs[0])
     return node
-
-
-def _park(node):
-    """Outside our renders the node is muted and holds no folder, so a saved .blend carries no
-    absolute temporary path, and rendered without the add-on it writes nothing anywhere (it
-    wrote into the shared temporary folder, following any symlink planted there)."""
-    node.mute = True
-    node.directory = ""
 
 
 def remove_output_node(tree):
@@ -198,7 +184,7 @@ def begin_render(scene):
     if output is None:
         return
     if not _job["read_back"]:
-        _park(output)
+        park(output)
         return
     directory = output_directory(scene)
     os.makedirs(directory, exist_ok=True)
@@ -231,7 +217,7 @@ def end_render(scene):
     if tone is not None:
         _set(tone, twin.FIXED_AVERAGE_LUMINANCE, 1.0)
     if output is not None:
-        _park(output)
+        park(output)
 
 
 @persistent

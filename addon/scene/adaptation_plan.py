@@ -11,9 +11,9 @@ chunk, and the brightness jumps at chunk boundaries. A plan removes that depende
 - frame f is tone mapped with "Previous Luminance" = A_prev from the plan and its own
   full-resolution measure, the same in one job and in any chunk.
 
-The plan is stored in the scene (it is saved with the .blend) with a signature of what it depends
-on: the frame range, frame rate, resolution, the panel's settings, and each object's transform,
-visibility and animation keys. A plan that is missing, damaged or made for another state of the
+The plan is stored in the scene (it is saved with the .blend) with its own frames and a signature
+of what it depends on: the frame step and rate, the resolution, the panel's settings, and each
+object's transform, visibility and animation keys (not the frame range, which a chunk changes). A plan that is missing, damaged or made for another state of the
 scene is not used (one warning line); frames then adapt along what the process renders.
 """
 from __future__ import annotations
@@ -27,6 +27,7 @@ import bpy
 
 from ..post import tone_mapping as twin
 from . import adaptation
+from .wiring import WIRED_KEY
 
 PLAN_KEY = "ols_adaptation_plan"
 VERSION = 1
@@ -92,6 +93,13 @@ def _keys(idblock):
     return [(c.data_path, c.array_index, [[round(v, 6) for v in k.co] for k in c.keyframe_points]) for c in bag.fcurves]
 
 
+def _setting(value):
+    """A control's value for the signature: vectors (colours) as rounded lists, the rest as repr."""
+    if isinstance(value, str) or not hasattr(value, "__len__"):
+        return repr(value)
+    return [round(v, 6) for v in value]
+
+
 def signature(scene) -> str:
     """A digest of what the frames' luminance depends on, the same at every frame of the scene."""
     render, settings = scene.render, scene.ols
@@ -101,9 +109,7 @@ def signature(scene) -> str:
         "scene": scene.name, "frame_step": scene.frame_step,
         "fps": [render.fps, render.fps_base], "size": [render.resolution_x, render.resolution_y],
         "camera": scene.camera.name if scene.camera else None,
-        "settings": {name: repr(getattr(settings, name)) if not hasattr(getattr(settings, name), "__len__")
-                     or isinstance(getattr(settings, name), str) else [round(v, 6) for v in getattr(settings, name)]
-                     for name in names},
+        "settings": {name: _setting(getattr(settings, name)) for name in names},
         "objects": [],
     }
     for obj in sorted(scene.objects, key=lambda o: o.name):
@@ -120,6 +126,10 @@ def signature(scene) -> str:
     return hashlib.sha256(json.dumps(state, sort_keys=True, default=str).encode()).hexdigest()
 
 
+def frame_weight(scene) -> float:
+    """The adaptation weight between two frames a frame step apart."""
+    render = scene.render
+    return twin.adaptation_weight(max(scene.frame_step, 1) * adaptation.frame_seconds(render.fps, render.fps_base))
 
 
 @contextmanager
@@ -161,13 +171,11 @@ def measure(scene, frames, progress=print) -> list:
 def build(scene, start=None, end=None, progress=print) -> dict:
     """Measure frames ``start``-``end`` (default: the scene's frame range) and store their plan
     in the scene; returns the plan."""
-    render = scene.render
     start = scene.frame_start if start is None else start
     end = scene.frame_end if end is None else end
     if end < start:
         raise PlanError(f"the frames run backward ({start}-{end})")
-    step = max(scene.frame_step, 1)
-    weight = twin.adaptation_weight(step * adaptation.frame_seconds(render.fps, render.fps_base))
+    step, weight = max(scene.frame_step, 1), frame_weight(scene)
     frames = range(start, end + 1, step)
     measured = measure(scene, frames, progress)
     plan = dict(version=VERSION, start=start, end=frames[-1], step=step, weight=weight,
@@ -187,8 +195,8 @@ def stored(scene):
     except (PlanError, ValueError, TypeError, RecursionError) as exc:
         return None, f"the stored light-adaptation plan is damaged ({exc})"
     if plan["signature"] != signature(scene):
-        return None, ("the stored light-adaptation plan was made for another state of the scene (frames, "
-                      "settings, objects or animation changed)")
+        return None, ("the stored light-adaptation plan was made for another state of the scene (frame "
+                      "rate or step, resolution, settings, objects or animation changed)")
     return plan, None
 
 
@@ -206,16 +214,15 @@ def history_frames(weight: float) -> int:
 def first_frame_needed(scene, first: int) -> int:
     """The earliest frame whose luminance still reaches frame ``first`` of a chunk (the
     animation's first frame for chunks less than history_frames into it)."""
-    render, step = scene.render, max(scene.frame_step, 1)
-    weight = twin.adaptation_weight(step * adaptation.frame_seconds(render.fps, render.fps_base))
+    step = max(scene.frame_step, 1)
     start = min(scene.frame_start, first)
-    earliest = first - history_frames(weight) * step
+    earliest = first - history_frames(frame_weight(scene)) * step
     return max(start, start + -(-(earliest - start) // step) * step)
 
 
 def wanted(scene) -> bool:
     """Whether renders of this scene adapt (and so need a plan for their frames)."""
-    return bool(scene.get("ols_bake_key")) and scene.ols.light_adaptation and scene.render.use_compositing
+    return bool(scene.get(WIRED_KEY)) and scene.ols.light_adaptation and scene.render.use_compositing
 
 
 def ensure(scene, start: int, end: int, progress=print) -> dict:

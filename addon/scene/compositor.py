@@ -20,6 +20,7 @@ import numpy as np
 from .. import nodes, props
 from ..post import tone_mapping
 from . import adaptation, luts
+from .file_outputs import new_file_output, park
 
 TREE_NAME = "OLS Compositing"
 NODE_NAME = "OLS Tone Mapping"
@@ -181,16 +182,9 @@ def _ensure_layers_output(tree, layers, aerial, shafts, tone):
     beauty = surface x transmittance + inscattering + shafts, all before the tone mapping."""
     node = tree.nodes.get(ATMOSPHERE_NODE)
     if node is None:
-        node = tree.nodes.new("CompositorNodeOutputFile")
-        node.name = node.label = ATMOSPHERE_NODE
-        node.location = (tone.location.x, tone.location.y - 400)
-        node.format.media_type = "MULTI_LAYER_IMAGE"
-        node.format.file_format = "OPEN_EXR_MULTILAYER"
-        node.format.color_depth = "32"
-        node.format.exr_codec = "ZIP"
-        for name in LAYER_NAMES:
-            node.file_output_items.new("RGBA", name)
-        _park_layers(node)
+        node = new_file_output(tree, ATMOSPHERE_NODE, (tone.location.x, tone.location.y - 400),
+                               media_type="MULTI_LAYER_IMAGE", file_format="OPEN_EXR_MULTILAYER",
+                               exr_codec="ZIP", items=[("RGBA", name) for name in LAYER_NAMES])
     difference = tree.nodes.get(SHAFTS_LAYER_NODE)
     if difference is None:
         difference = tree.nodes.new("ShaderNodeVectorMath")
@@ -204,14 +198,6 @@ def _ensure_layers_output(tree, layers, aerial, shafts, tone):
                "Shafts": difference.outputs["Vector"]}
     for name, socket in sources.items():
         tree.links.new(socket, node.inputs[name])
-
-
-def _park_layers(node):
-    """Outside multilayer EXR renders: muted, no folder (no absolute path in a saved .blend)."""
-    if not node.mute:
-        node.mute = True
-    if node.directory:
-        node.directory = ""
 
 
 def layers_path(scene):
@@ -229,7 +215,7 @@ def sync_layers_output(scene, rendering: bool):
     if node is None:
         return
     if not (rendering and scene.render.image_settings.file_format == "OPEN_EXR_MULTILAYER"):
-        _park_layers(node)
+        park(node)
         return
     folder, name = layers_path(scene)
     if node.directory != folder:

@@ -112,11 +112,15 @@ def _group_into_output(tree, group_name: str, output_type: str, group_socket: st
     return group
 
 
+def _is_terrain_group(node) -> bool:
+    return node.type == "GROUP" and node.node_tree is not None and node.node_tree.name == nodes.TERRAIN_GROUP
+
+
 def _albedo_source(tree):
     """(linked socket or None, colour) that feeds the surface colour: our group's Albedo when the
     material is ours already, else the first Principled BSDF's Base Color."""
     for node in tree.nodes:
-        if node.type == "GROUP" and node.node_tree is not None and node.node_tree.name == nodes.TERRAIN_GROUP:
+        if _is_terrain_group(node):
             socket = node.inputs["Albedo"]
             break
     else:
@@ -133,8 +137,7 @@ def _terrain_group_into(tree):
     source, colour = _albedo_source(tree)
     drivers.remove_drivers(tree)
     for node in list(tree.nodes):
-        is_ours = node.type == "GROUP" and node.node_tree is not None and node.node_tree.name == nodes.TERRAIN_GROUP
-        if is_ours or node.type == "OUTPUT_MATERIAL" or isinstance(node, bpy.types.ShaderNodeBsdfPrincipled):
+        if _is_terrain_group(node) or node.type in {"OUTPUT_MATERIAL", "BSDF_PRINCIPLED"}:
             tree.nodes.remove(node)
     group = tree.nodes.new("ShaderNodeGroup")
     group.node_tree = bpy.data.node_groups[nodes.TERRAIN_GROUP]
