@@ -90,15 +90,15 @@ def _smoothstep(low, high, x):
     return t * t * (3.0 - 2.0 * t)
 
 
-def _look_up(luts, points, direction, sun, table, above_horizon=None):
+def _look_up(luts, points, direction, sun, table, above_horizon=None, phase_free=False):
     height, up = _frame(luts, points)
     cos_view = np.sum(up * direction, axis=-1)
     cos_sun = np.sum(up * sun, axis=-1)
     cos_sun_view = np.sum(direction * sun, axis=-1)
     if above_horizon is None:
         above_horizon = cos_view > par.cos_horizon(height, luts.params.earth_radius)
-    return luts.sky_radiance(height, cos_view, cos_sun, cos_sun_view, table=table,
-                             above_horizon=above_horizon).astype(np.float64), above_horizon
+    return luts.sky_radiance(height, cos_view, cos_sun, cos_sun_view, table=table, above_horizon=above_horizon,
+                             phase_free=phase_free).astype(np.float64), above_horizon
 
 
 def segment_inscattering(luts: Luts, start, end, sun_direction, table: str = "multiple") -> np.ndarray:
@@ -205,34 +205,49 @@ HORIZON_BLEND = 0.004      # zenith-cosine half width of Bruneton's blend across
 HORIZON_BLEND_HEIGHT = 20.0  # ... narrowed so the tilted rays end at most this many metres off
 
 
-def _eq8(luts, start, end, direction, sun, table, start_transmittance, end_transmittance):
+def _eq8(luts, start, end, direction, sun, table, start_transmittance, end_transmittance, phase_free=False):
     """T_start L(start) - T_end L(end), both look-ups on the side of the horizon seam the first
     one chose (Listing 2). Within HORIZON_BLEND of the start's horizon the two sides of the
     seam disagree by the tables' interpolation error (about 15% near the ground), which draws a
     step along the horizon: there, as in Bruneton's reference implementation, eq. (8) is taken
     along the rays HORIZON_BLEND below and above the horizon (same length) and blended. The band
     narrows for long sections so the tilted rays end within HORIZON_BLEND_HEIGHT of the true end
-    (measured: the step drops from 5-22% to 0.1-5%, the error against brute force stays 2.5% p90)."""
-    near, above = _look_up(luts, start, direction, sun, table)
-    far, _ = _look_up(luts, end, direction, sun, table, above_horizon=above)
+    (measured: the step drops from 5-22% to 0.1-5%, the error against brute force stays 2.5% p90).
+    ``start`` and ``direction`` may have a size-1 axis that ``end`` spans (many distances
+    along one ray: the start's look-up is made once); ``phase_free`` as Luts.sky_radiance."""
+    near, above = _look_up(luts, start, direction, sun, table, phase_free=phase_free)
+    far, _ = _look_up(luts, end, direction, sun, table, above_horizon=above, phase_free=phase_free)
     plain = np.maximum(start_transmittance * near - end_transmittance * far, 0.0)
     height, up = _frame(luts, start)
     offset = np.sum(up * direction, axis=-1) - par.cos_horizon(height, luts.params.earth_radius)
     length = np.linalg.norm(end - start, axis=-1)
     half_width = np.minimum(HORIZON_BLEND, HORIZON_BLEND_HEIGHT / np.maximum(length, 1e-9))
-    if not np.any(np.abs(offset) < half_width):
+    band = np.broadcast_to(np.abs(offset) < half_width, plain.shape[:-1])
+    if not band.any():
         return plain
+
+    def in_band(x, channels=()):
+        """The band's elements of ``x`` broadcast to the result's shape (the look-ups run on
+        those alone)."""
+        return np.broadcast_to(np.asarray(x, dtype=np.float64), plain.shape[:-1] + channels)[band]
+
+    up_b, start_b = in_band(up, (3,)), in_band(start, (3,))
+    direction_b, length_b = in_band(direction, (3,)), in_band(length)
+    offset_b, half_b = in_band(offset), in_band(half_width)
+    horizon_b = in_band(par.cos_horizon(height, luts.params.earth_radius))
+    start_t, end_t = in_band(start_transmittance, (3,)), in_band(end_transmittance, (3,))
     sides = []
     for side in (-1.0, 1.0):
-        tilted = _tilted(up, direction, par.cos_horizon(height, luts.params.earth_radius) + side * half_width)
-        tilted_end = start + tilted * length[..., None]
-        flag = np.full(offset.shape, side > 0)
-        near, _ = _look_up(luts, start, tilted, sun, table, above_horizon=flag)
-        far, _ = _look_up(luts, tilted_end, tilted, sun, table, above_horizon=flag)
-        sides.append(np.maximum(start_transmittance * near - end_transmittance * far, 0.0))
-    weight = np.clip((offset + half_width) / (2.0 * half_width), 0.0, 1.0)[..., None]
-    blended = sides[0] + (sides[1] - sides[0]) * weight
-    return np.where((np.abs(offset) < half_width)[..., None], blended, plain)
+        tilted = _tilted(up_b, direction_b, horizon_b + side * half_b)
+        tilted_end = start_b + tilted * length_b[..., None]
+        flag = np.full(offset_b.shape, side > 0)
+        near, _ = _look_up(luts, start_b, tilted, sun, table, above_horizon=flag, phase_free=phase_free)
+        far, _ = _look_up(luts, tilted_end, tilted, sun, table, above_horizon=flag, phase_free=phase_free)
+        sides.append(np.maximum(start_t * near - end_t * far, 0.0))
+    weight = np.clip((offset_b + half_b) / (2.0 * half_b), 0.0, 1.0)[..., None]
+    result = plain.copy()
+    result[band] = sides[0] + (sides[1] - sides[0]) * weight
+    return result
 
 
 def _tilted(up, direction, cos_zenith):

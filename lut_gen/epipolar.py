@@ -16,8 +16,8 @@ slice (denser near the epipole) is marched; where two marched neighbours disagre
 the refinement threshold the samples between them are marched too, the rest interpolated.
 
 In the compositor each pixel finds its slice and sample, reads L, F and S at its own depth
-(trilinear), and applies the scattering modes (lut_gen.aerial.apply_modes). Depth breaks cost
-nothing: no pixel borrows another's depth.
+(trilinear), and applies the scattering modes from the in-scattering tables of
+lut_gen.epipolar_air. Depth breaks cost nothing: no pixel borrows another's depth.
 """
 from __future__ import annotations
 
@@ -160,10 +160,15 @@ def frame_for(camera: Camera, sun_direction, width: int, height: int, far: float
     theta_lo, theta_hi = max(theta_lo - pixel, 0.0), min(theta_hi + pixel, np.pi)
     if phi_span < 2.0 * np.pi:
         phi_lo, phi_span = phi_lo - pixel, min(phi_span + 2.0 * pixel, 2.0 * np.pi)
-    corner_cos = 1.0 / np.sqrt(1.0 + tx * tx + ty * ty)
-    t_max = max(far / max(corner_cos, aerial_min_forward()), 2.0 * MIN_NEAR)
+    t_max = max(far / max(corner_cosine(camera), aerial_min_forward()), 2.0 * MIN_NEAR)
     return EpipolarFrame(sun, axis1, axis2, phi_lo, max(phi_span, 1e-6), theta_lo, max(theta_hi - theta_lo, 1e-6),
                          t_max, t_max / MIN_NEAR, settings.slices, settings.samples, settings.steps)
+
+
+def corner_cosine(camera: Camera) -> float:
+    """Cosine between the view axis and the screen's corner rays."""
+    tx, ty = camera.tan_half_fov
+    return 1.0 / np.sqrt(1.0 + tx * tx + ty * ty)
 
 
 def aerial_min_forward():
@@ -316,48 +321,38 @@ def _fill_between_marched(table, marched):
         table[s] = flat.reshape(table[s].shape)
 
 
-def look_up(frame: EpipolarFrame, tables: EpipolarTables, directions, distances):
-    """(lit length, first lit, integrated or None) for pixel rays ``directions`` (..., 3) at
-    their own distances (...): trilinear in (slice, sample, distance)."""
+def trilinear(frame: EpipolarFrame, table, directions, distances) -> np.ndarray:
+    """``table`` (slices + 1, samples, steps[, channels]) at rays ``directions`` (..., 3) and
+    distances (...): trilinear in (slice, sample, distance), as the compositor's filtered
+    fetches."""
     x, y = frame.direction_to_x(directions)
     z = frame.distance_to_x(distances)
     shape = np.shape(distances)
     coords = [np.asarray(c).reshape(-1) for c in (x, y, z)]
+    i0 = np.minimum(np.floor(coords[0]).astype(int), table.shape[0] - 2)
+    j0 = np.minimum(np.floor(coords[1]).astype(int), table.shape[1] - 2)
+    k0 = np.minimum(np.floor(coords[2]).astype(int), table.shape[2] - 2)
+    wi, wj, wk = coords[0] - i0, coords[1] - j0, coords[2] - k0
+    out = 0.0
+    for di, fi in ((0, 1 - wi), (1, wi)):
+        for dj, fj in ((0, 1 - wj), (1, wj)):
+            for dk, fk in ((0, 1 - wk), (1, wk)):
+                w = fi * fj * fk
+                v = table[i0 + di, j0 + dj, k0 + dk]
+                out = out + (w[:, None] * v if v.ndim == 2 else w * v)
+    return out.reshape(shape + table.shape[3:])
 
-    def interp(table):
-        i0 = np.minimum(np.floor(coords[0]).astype(int), table.shape[0] - 2)
-        j0 = np.minimum(np.floor(coords[1]).astype(int), table.shape[1] - 2)
-        k0 = np.minimum(np.floor(coords[2]).astype(int), table.shape[2] - 2)
-        wi, wj, wk = coords[0] - i0, coords[1] - j0, coords[2] - k0
-        out = 0.0
-        for di, fi in ((0, 1 - wi), (1, wi)):
-            for dj, fj in ((0, 1 - wj), (1, wj)):
-                for dk, fk in ((0, 1 - wk), (1, wk)):
-                    w = fi * fj * fk
-                    v = table[i0 + di, j0 + dj, k0 + dk]
-                    out = out + (w[:, None] * v if v.ndim == 2 else w * v)
-        return out
 
-    lit_length = interp(tables.lit_length).reshape(shape)
-    first_lit = interp(tables.first_lit).reshape(shape)
-    integrated = None if tables.integrated is None else interp(tables.integrated).reshape(shape + (3,))
+def look_up(frame: EpipolarFrame, tables: EpipolarTables, directions, distances):
+    """(lit length, first lit, integrated or None) for pixel rays ``directions`` (..., 3) at
+    their own distances (...): trilinear in (slice, sample, distance)."""
+    lit_length = trilinear(frame, tables.lit_length, directions, distances)
+    first_lit = trilinear(frame, tables.first_lit, directions, distances)
+    integrated = None if tables.integrated is None else trilinear(frame, tables.integrated, directions, distances)
     # Beyond the grid (surfaces that cast no shadow, past the farthest caster) the air is lit,
     # as it is outside every cascade for brute force.
     beyond = np.maximum(np.asarray(distances) - frame.t_max, 0.0)
     return np.minimum(lit_length, distances) + beyond, np.minimum(first_lit, distances), integrated
-
-
-def light_shafts(luts, camera: Camera, end, frame: EpipolarFrame, tables: EpipolarTables,
-                 single_mode: str = "LUT", multiple_mode: str = "UNOCCLUDED") -> np.ndarray:
-    """(..., 3) shadowed in-scattering along camera -> end per unit sun, from the tables."""
-    aerial.check_modes(single_mode, multiple_mode)
-    ray = np.asarray(end, dtype=np.float64) - camera.position
-    length = np.linalg.norm(ray, axis=-1)
-    direction = ray / np.maximum(length, 1e-9)[..., None]
-    lit_length, first_lit, integrated = look_up(frame, tables, direction, length)
-    camera_position = np.broadcast_to(camera.position, ray.shape)
-    return aerial.apply_modes(luts, camera_position, np.asarray(end, dtype=np.float64), frame.sun, lit_length,
-                              first_lit, integrated, single_mode, multiple_mode)
 
 
 def sampling_overlay(frame: EpipolarFrame, marched, camera: Camera, width: int, height: int) -> np.ndarray:

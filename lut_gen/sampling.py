@@ -35,6 +35,7 @@ GEOMETRIC_AXES = (0, 2)
 
 TABLES = ("single", "higher", "multiple")
 TABLES_WITH_MIE = ("single", "multiple")
+STORED_TABLES = TABLES + ("single_mie",)      # what phase_free look-ups may read
 # Net density stored where a ray hits the Earth (the sample's convention): any extinction
 # turns it into a transmittance of exactly 0. Needs 32-bit float storage.
 EARTH_HIT_NET_DENSITY = 1e20
@@ -120,23 +121,28 @@ class Luts:
         return tuple(int(n) for n in self.single.shape[:4])
 
     def table(self, name: str) -> np.ndarray:
-        if name not in TABLES:
-            raise ValueError(f"table must be one of {', '.join(TABLES)}, got {name!r}")
+        if name not in STORED_TABLES:
+            raise ValueError(f"table must be one of {', '.join(STORED_TABLES)}, got {name!r}")
         return getattr(self, name)
 
     # -- 4D scattering ---------------------------------------------------------
     def sky_radiance(self, height_m, cos_view_zenith, cos_sun_zenith, cos_sun_view,
-                     table: str = "multiple", above_horizon=None) -> np.ndarray:
+                     table: str = "multiple", above_horizon=None, phase_free: bool = False) -> np.ndarray:
         """In-scattered radiance toward a viewer at ``height_m`` looking along the given
         direction, per unit sun, phase functions included. ``above_horizon`` forces the side of
-        the horizon seam (pass the flag of an earlier look-up on the same ray)."""
+        the horizon seam (pass the flag of an earlier look-up on the same ray). ``phase_free``:
+        the stored table alone (``table`` may then be "single_mie"), no phase function and no
+        Mie part added."""
+        if table not in TABLES and not phase_free:
+            raise ValueError(f"the {table!r} table has no phase function of its own: look it up phase_free")
         cos_sun_view = par.clamp_sun_view(cos_view_zenith, cos_sun_zenith, cos_sun_view)
         xh, xa, xs, xt, above = par.world_to_x(self.params, self.dims, height_m, cos_view_zenith,
                                                cos_sun_zenith, cos_sun_view, above_horizon)
         coords = (xh, xa, xs, xt)
-        radiance = (interpolate(self.table(table), coords, geometric_axes=GEOMETRIC_AXES)
-                    * rayleigh_phase(cos_sun_view)[..., None].astype(np.float32))
-        if table in TABLES_WITH_MIE:
+        radiance = interpolate(self.table(table), coords, geometric_axes=GEOMETRIC_AXES)
+        if not phase_free:
+            radiance = radiance * rayleigh_phase(cos_sun_view)[..., None].astype(np.float32)
+        if table in TABLES_WITH_MIE and not phase_free:
             phase = mie_phase(cos_sun_view, self.params.mie_g)[..., None].astype(np.float32)
             radiance += interpolate(self.single_mie, coords, geometric_axes=GEOMETRIC_AXES) * phase
         scale = par.look_up_scale(self.params, height_m, cos_view_zenith, above)

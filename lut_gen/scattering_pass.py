@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import aerial, epipolar
+from . import aerial, epipolar, epipolar_air
 from .atomic import atomic_path
 from .sampling import Luts
 from .shadow_map import CASCADE_COLORS, Camera, ShadowCascades, select_cascade, visibility
@@ -88,8 +88,9 @@ def scattering_pass(luts: Luts, image, position, depth, camera: Camera, sun_dire
     out = np.where(geometry[..., None], surface + unshadowed * scale, image)
     overlay = None
     if settings.enable_light_shafts and cascades is not None:
-        shafts, overlay = light_shafts(luts, camera, end, sun, cascades, settings, width, height)
-        out = out + (shafts - unshadowed) * scale
+        difference, overlay = shadow_difference(luts, camera, end, sun, cascades, settings, width, height,
+                                                unshadowed)
+        out = out + difference * scale
     if settings.show_cascades and cascades is not None:
         out = np.where(geometry[..., None], out * cascade_tint(cascades, end, camera, settings), out)
     if overlay is not None:
@@ -104,10 +105,12 @@ def sampling_red(radiance):
     return np.stack([red, np.zeros_like(red), np.zeros_like(red)], axis=-1)
 
 
-def light_shafts(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades, settings: PassSettings,
-                 width: int, height: int):
-    """(shadowed in-scattering per unit sun of every pixel with the settings' technique, Show
-    Sampling's overlay or None)."""
+def shadow_difference(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades, settings: PassSettings,
+                      width: int, height: int, unshadowed):
+    """(shadowed minus unshadowed in-scattering per unit sun of every pixel with the settings'
+    technique, Show Sampling's overlay or None). Brute force marches each pixel and subtracts
+    ``unshadowed`` (eq. 8 over the multiple-scattering table); epipolar sampling reads both
+    from its tables (lut_gen.epipolar_air)."""
     if settings.scattering_technique == "EPIPOLAR_SAMPLING":
         wanted = epipolar.settings_from(settings)
         frame = epipolar.frame_for(camera, sun, width, height, float(cascades.far_depths[-1]), wanted)
@@ -116,14 +119,18 @@ def light_shafts(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades,
                                        settings.single_scattering_mode == "INTEGRATION")
         overlay = (epipolar.sampling_overlay(frame, tables.marched, camera, width, height)
                    if settings.show_sampling else None)
-        return epipolar.light_shafts(luts, camera, end, frame, tables, settings.single_scattering_mode,
-                                     settings.multiple_scattering_mode), overlay
+        air = epipolar_air.air_frame(frame, camera)
+        air_tables = epipolar_air.build(luts, air, camera.position, settings.multiple_scattering_mode)
+        return epipolar_air.light_shaft_difference(luts, camera, end, frame, tables, air, air_tables,
+                                                   settings.single_scattering_mode,
+                                                   settings.multiple_scattering_mode), overlay
 
     def is_lit(points):
         return visibility(cascades, points, camera, settings.smooth_shadows,
                           settings.best_cascade_search, settings.first_cascade_to_ray_march)
-    return aerial.light_shafts(luts, camera.position, end, sun, is_lit, settings.num_integration_steps,
-                               settings.single_scattering_mode, settings.multiple_scattering_mode), None
+    shadowed = aerial.light_shafts(luts, camera.position, end, sun, is_lit, settings.num_integration_steps,
+                                   settings.single_scattering_mode, settings.multiple_scattering_mode)
+    return shadowed - unshadowed, None
 
 
 def cascade_tint(cascades: ShadowCascades, points, camera: Camera, settings: PassSettings):

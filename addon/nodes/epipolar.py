@@ -1,12 +1,14 @@
 """The epipolar technique's part of "OLS Light Shafts": instead of marching each pixel's ray
 through the shadow maps, read the lit length, the first lit distance and (INTEGRATION) the
 shadowed single scattering at the pixel's own depth from the tables lut_gen.epipolar builds
-before each frame. Twin: lut_gen.epipolar.look_up.
+before each frame, then apply the scattering modes from the in-scattering tables of
+lut_gen.epipolar_air (no per-pixel eq. 8). Twin: lut_gen.epipolar_air.light_shaft_difference.
 
 Table image "OLS Epipolar Lit" (RGBA: lit length, first lit): row i * K + k holds slice node
 i at distance node k, column j sample node j; "OLS Epipolar Integral" (RGB) the same for the
-INTEGRATION mode. Bilinear filtering interpolates samples and distances, the slices are blended
-by hand (two fetches).
+INTEGRATION mode; "OLS Epipolar Air ..." (RGB) the in-scattering tables on their coarser grid,
+whose reach is the z of the "Epipolar Depth" input. Bilinear filtering interpolates samples and
+distances, the slices are blended by hand (two fetches).
 """
 from __future__ import annotations
 
@@ -14,17 +16,21 @@ import math
 
 import numpy as np
 
-from ...lut_gen import epipolar
+from ...lut_gen import epipolar, epipolar_air
+from ...lut_gen.atmosphere import RAYLEIGH_PHASE_NORM
+from .lookup import mie_phase
 
 LIT_IMAGE = "OLS Epipolar Lit"
 INTEGRAL_IMAGE = "OLS Epipolar Integral"
 SAMPLING_IMAGE = "OLS Epipolar Sampling"    # Show Sampling's dots at the render's size (1 x 1 when off)
+AIR_IMAGES = {"single": "OLS Epipolar Air Rayleigh", "single_mie": "OLS Epipolar Air Mie",
+              "higher": "OLS Epipolar Air Higher"}
 INPUTS = [
     ("Epipolar Axis 1", "NodeSocketVector", (1.0, 0.0, 0.0)),
     ("Epipolar Axis 2", "NodeSocketVector", (0.0, 1.0, 0.0)),
     ("Epipolar Phi", "NodeSocketVector", (0.0, 1.0, 0.0)),
     ("Epipolar Theta", "NodeSocketVector", (0.0, 1.0, 0.0)),
-    ("Epipolar Depth", "NodeSocketVector", (1.0, 1.0, 0.0)),
+    ("Epipolar Depth", "NodeSocketVector", (1.0, 1.0, 1.0)),     # z: the in-scattering grid's reach
     ("Show Sampling", "NodeSocketFloat", 0.0),
 ]
 
@@ -37,19 +43,29 @@ def show_sampling(g, gin, result, pixel_uv, sampling_image):
     return g.vlerp(result, g.combine(red, 0.0, 0.0), g.mul(dots, gin.outputs["Show Sampling"]))
 
 
+def _rows(table) -> np.ndarray:
+    """(slices + 1, samples, steps[, channels]) -> RGBA pixels ((slices + 1) steps, samples, 4):
+    row i * steps + k holds slice node i at distance node k."""
+    table = np.asarray(table, dtype=np.float32)
+    if table.ndim == 3:
+        table = table[..., None]
+    n_slices, n_samples, steps, channels = table.shape
+    pixels = np.zeros((n_slices, steps, n_samples, 4), dtype=np.float32)
+    pixels[..., :channels] = table.transpose(0, 2, 1, 3)
+    pixels[..., 3] = 1.0
+    return pixels.reshape(n_slices * steps, n_samples, 4)
+
+
 def pack(tables: epipolar.EpipolarTables):
     """(lit RGBA pixels ((S+1) K, N, 4), integral RGBA pixels or None), rows bottom to top."""
-    n_slices, n_samples, K = tables.lit_length.shape
-    lit = np.zeros((n_slices, K, n_samples, 4), dtype=np.float32)
-    lit[..., 0] = tables.lit_length.transpose(0, 2, 1)
-    lit[..., 1] = tables.first_lit.transpose(0, 2, 1)
-    lit[..., 3] = 1.0
-    integral = None
-    if tables.integrated is not None:
-        integral = np.ones((n_slices, K, n_samples, 4), dtype=np.float32)
-        integral[..., :3] = tables.integrated.transpose(0, 2, 1, 3)
-        integral = integral.reshape(n_slices * K, n_samples, 4)
-    return lit.reshape(n_slices * K, n_samples, 4), integral
+    lit = _rows(np.stack([tables.lit_length, tables.first_lit], axis=-1))
+    return lit, None if tables.integrated is None else _rows(tables.integrated)
+
+
+def pack_air(tables: epipolar_air.AirTables) -> dict:
+    """{image name: RGBA pixels} of the in-scattering tables (the higher orders only when built)."""
+    arrays = {"single": tables.rayleigh, "single_mie": tables.mie, "higher": tables.higher}
+    return {AIR_IMAGES[name]: _rows(table) for name, table in arrays.items() if table is not None}
 
 
 def image_size(slices: int, samples: int, steps: int):
@@ -57,40 +73,97 @@ def image_size(slices: int, samples: int, steps: int):
     return samples, (slices + 1) * steps
 
 
-def look_up(g, gin, direction, length, sun, layout, lit_image, integral_image):
-    """(lit length, first lit, integrated or None) sockets for the pixel ray ``direction`` at
-    distance ``length``."""
-    S, N, K = layout.slices, layout.samples, layout.steps
+def air_image_size(slices: int, samples: int):
+    """(width, height) of the in-scattering images for lit-length tables of slices x samples."""
+    return image_size(*epipolar_air.air_dims(slices, samples))
+
+
+def air_images_wanted(layout) -> list:
+    """Names of the in-scattering images the layout's modes read."""
+    names = ["single", "single_mie"] + (["higher"] if epipolar_air.needs_higher(layout.multiple_mode) else [])
+    return [AIR_IMAGES[name] for name in names]
+
+
+def _grid_coordinates(g, gin, direction, sun):
+    """(slice fraction, sample fraction), each in [0, 1], of the pixel ray ``direction``."""
     phi0, phi_span, full = g.separate(gin.outputs["Epipolar Phi"])
     theta0, theta_span, _ = g.separate(gin.outputs["Epipolar Theta"])
-    t_max, growth, _ = g.separate(gin.outputs["Epipolar Depth"])
     phi = g.math("ARCTAN2", g.vmath("DOT_PRODUCT", direction, gin.outputs["Epipolar Axis 2"]),
                  g.vmath("DOT_PRODUCT", direction, gin.outputs["Epipolar Axis 1"]))
     turn = g.sub(phi, phi0)
     turn = g.lerp(turn, g.math("FLOORED_MODULO", turn, 2.0 * math.pi), full)
-    x = g.mul(g.math("DIVIDE", turn, phi_span, clamp=False), float(S))
-    x = g.clamp(x, 0.0, float(S))
+    across = g.clamp(g.math("DIVIDE", turn, phi_span, clamp=False), 0.0, 1.0)
     theta = g.math("ARCCOSINE", g.clamp(g.vmath("DOT_PRODUCT", direction, sun), -1.0, 1.0))
-    y = g.mul(g.clamp(g.div(g.sub(theta, theta0), theta_span), 0.0, 1.0), float(N - 1))
-    t = g.clamp(g.div(length, t_max), 0.0, 1.0)
-    z = g.mul(g.div(g.math("LOGARITHM", g.mul_add(growth, t, 1.0), math.e),
-                    g.math("LOGARITHM", g.add(growth, 1.0), math.e)), float(K - 1))
+    along = g.clamp(g.div(g.sub(theta, theta0), theta_span), 0.0, 1.0)
+    return across, along
+
+
+def _distance_node(g, distance, t_max, growth, steps):
+    """Fractional node index of ``distance`` on the geometric grid t_max ((1 + a)^(k / (K - 1)) - 1) / a."""
+    t = g.clamp(g.div(distance, t_max), 0.0, 1.0)
+    return g.mul(g.div(g.math("LOGARITHM", g.mul_add(growth, t, 1.0), math.e),
+                       g.math("LOGARITHM", g.add(growth, 1.0), math.e)), float(steps - 1))
+
+
+def _fetch(g, image, dims, across, along, z):
+    """A table image (dims = slices, samples, steps) at the grid fractions and distance node
+    ``z``: bilinear in hardware along samples and distances, the slices blended by hand."""
+    S, N, K = dims
+    x = g.mul(across, float(S))
     i0 = g.math("MINIMUM", g.math("FLOOR", x), float(S - 1))
     w = g.sub(x, i0)
     width, height = image_size(S, N, K)
-    u = g.div(g.add(y, 0.5), float(width))
+    u = g.div(g.mul_add(along, float(N - 1), 0.5), float(width))
+    rows = []
+    for di in (0.0, 1.0):
+        v = g.div(g.add(g.mul_add(g.add(i0, di), float(K), z), 0.5), float(height))
+        rows.append(g.image(image, g.combine(u, v, 1.0), interpolation="Linear"))
+    return g.vlerp(rows[0], rows[1], w)
 
-    def fetch(image):
-        rows = []
-        for di in (0.0, 1.0):
-            v = g.div(g.add(g.mul_add(g.add(i0, di), float(K), z), 0.5), float(height))
-            rows.append(g.image(image, g.combine(u, v, 1.0), interpolation="Linear"))
-        return g.vlerp(rows[0], rows[1], w)
 
-    lit_length, first_lit, _ = g.separate(fetch(lit_image))
+def shadow_difference(g, gin, direction, length, sun, layout, images, mie_g):
+    """Shadowed minus unshadowed in-scattering per unit sun of the pixel ray ``direction`` of
+    ``length``: the lit length and first lit distance at the pixel's own depth, then the modes
+    from the in-scattering images (twin: lut_gen.epipolar_air.light_shaft_difference)."""
+    lit_image, integral_image, _, air_images = images
+    across, along = _grid_coordinates(g, gin, direction, sun)
+    t_max, growth, reach = g.separate(gin.outputs["Epipolar Depth"])
+    dims = (layout.slices, layout.samples, layout.steps)
+    z = _distance_node(g, length, t_max, growth, layout.steps)
+    lit_length, first_lit, _ = g.separate(_fetch(g, lit_image, dims, across, along, z))
     # Beyond the grid (past the farthest shadow caster) the air is lit, as outside every cascade.
     beyond = g.math("MAXIMUM", g.sub(length, t_max), 0.0)
     lit_length = g.add(g.math("MINIMUM", lit_length, length), beyond)
     first_lit = g.math("MINIMUM", first_lit, length)
-    integrated = fetch(integral_image) if integral_image is not None else None
-    return lit_length, first_lit, integrated
+    lit_end = g.add(first_lit, lit_length)
+    has_lit = g.math("GREATER_THAN", lit_length, 0.0)
+
+    air_dims = epipolar_air.air_dims(layout.slices, layout.samples)
+    air_growth = g.div(reach, epipolar.MIN_NEAR)
+    cos_theta = g.vmath("DOT_PRODUCT", direction, sun)
+    rayleigh_phase = g.mul(g.mul_add(cos_theta, cos_theta, 1.0), RAYLEIGH_PHASE_NORM)
+    mie = mie_phase(g, cos_theta, mie_g)
+
+    def at(table, distance):
+        node = _distance_node(g, distance, reach, air_growth, air_dims[2])
+        return _fetch(g, air_images[AIR_IMAGES[table]], air_dims, across, along, node)
+
+    def single(distance):
+        return g.vmath("ADD", g.vscale(at("single", distance), rayleigh_phase), g.vscale(at("single_mie", distance), mie))
+
+    def higher(distance):
+        return g.vscale(at("higher", distance), rayleigh_phase)
+
+    def lit_section(part):
+        return g.vscale(g.vmath("SUBTRACT", part(lit_end), part(first_lit)), has_lit)
+
+    difference = g.vscale(single(length), -1.0)
+    if layout.single_mode == "LUT":
+        difference = g.vmath("ADD", difference, lit_section(single))
+    elif layout.single_mode == "INTEGRATION":
+        difference = g.vmath("ADD", difference, _fetch(g, integral_image, dims, across, along, z))
+    if layout.multiple_mode == "OCCLUDED":
+        difference = g.vmath("SUBTRACT", g.vmath("ADD", difference, lit_section(higher)), higher(length))
+    elif layout.multiple_mode == "NONE":
+        difference = g.vmath("SUBTRACT", difference, higher(length))
+    return difference

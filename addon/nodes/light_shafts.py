@@ -201,9 +201,10 @@ MAIN_INPUTS = PASS_INPUTS + [
 
 
 def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params, layout: ShaftLayout,
-                             epipolar_images=(None, None, None)):
+                             epipolar_images=(None, None, None, {})):
     """(Re)build "OLS Light Shafts" and its sub-groups for ``layout``; the epipolar technique
-    reads ``epipolar_images`` (lit, integral or None, sampling overlay) instead of marching."""
+    reads ``epipolar_images`` (lit, integral or None, sampling overlay, {name: in-scattering
+    image}) instead of marching."""
     shadow_test_tree = build_shadow_test_group(layout, atlas_image, parameter_image)
     integration = build_integration_group(optical_image, params)
     tree = new_group(GROUP_NAME, "CompositorNodeTree")
@@ -238,12 +239,32 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
         return node
 
     if layout.epipolar:
-        lit_length, first_lit, integrated = epipolar.look_up(g, gin, direction, length, sun, layout,
-                                                             *epipolar_images[:2])
+        difference = epipolar.shadow_difference(g, gin, direction, length, sun, layout, epipolar_images, params.mie_g)
     else:
         lit_length, first_lit, integrated = _march(g, gin, camera, direction, length, sun, layout, shadow_test,
                                                    integration)
+        difference = _brute_force_difference(g, camera, end, direction, sun, layout, lit_length, first_lit,
+                                              integrated)
+    scale = g.mul(g.mul(gin.outputs["Sun Strength"], gin.outputs["Scattering Scale"]), gin.outputs["Enable"])
+    result = g.vmath("MULTIPLY_ADD", difference, g.combine(scale, scale, scale), gin.outputs["Image"])
 
+    if layout.show_cascades:    # tint surfaces with the colour of the cascade they fall in
+        end_cascade = shadow_test(end).outputs["Cascade"]
+        colour_u = g.div(g.add(end_cascade, 0.5), layout.cascades + 1)
+        colour_v = (shadow_map.PARAM_ROWS.index("color") + 0.5) / len(shadow_map.PARAM_ROWS)
+        colour = g.image(parameter_image, g.combine(colour_u, colour_v, 1.0), interpolation="Closest")
+        tint = g.vlerp((1.0, 1.0, 1.0), colour, g.mul(gin.outputs["Show Cascades"], geometry))
+        result = g.vmath("MULTIPLY", result, tint)
+    if layout.epipolar:
+        result = epipolar.show_sampling(g, gin, result, g.combine(nx, ny, 1.0), epipolar_images[2])
+
+    g.links.new(g.with_alpha_of(gin.outputs["Image"], result), gout.inputs["Image"])
+    return tree
+
+
+def _brute_force_difference(g, camera, end, direction, sun, layout: ShaftLayout, lit_length, first_lit, integrated):
+    """Shadowed minus unshadowed in-scattering per unit sun: the modes applied with eq. (8)
+    per pixel (twin: lut_gen.aerial.apply_modes minus segment_inscattering)."""
     def transmittance_to(point):
         return segment_transmittance_node(g, camera, point, direction)
 
@@ -270,22 +291,7 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     for term in terms:
         shadowed = g.vmath("ADD", shadowed, term)
     unshadowed = section_node(g, "multiple", camera, end, direction, sun, None, end_transmittance)
-    scale = g.mul(g.mul(gin.outputs["Sun Strength"], gin.outputs["Scattering Scale"]), gin.outputs["Enable"])
-    result = g.vmath("MULTIPLY_ADD", g.vmath("SUBTRACT", shadowed, unshadowed), g.combine(scale, scale, scale),
-                     gin.outputs["Image"])
-
-    if layout.show_cascades:    # tint surfaces with the colour of the cascade they fall in
-        end_cascade = shadow_test(end).outputs["Cascade"]
-        colour_u = g.div(g.add(end_cascade, 0.5), layout.cascades + 1)
-        colour_v = (shadow_map.PARAM_ROWS.index("color") + 0.5) / len(shadow_map.PARAM_ROWS)
-        colour = g.image(parameter_image, g.combine(colour_u, colour_v, 1.0), interpolation="Closest")
-        tint = g.vlerp((1.0, 1.0, 1.0), colour, g.mul(gin.outputs["Show Cascades"], geometry))
-        result = g.vmath("MULTIPLY", result, tint)
-    if layout.epipolar:
-        result = epipolar.show_sampling(g, gin, result, g.combine(nx, ny, 1.0), epipolar_images[2])
-
-    g.links.new(g.with_alpha_of(gin.outputs["Image"], result), gout.inputs["Image"])
-    return tree
+    return g.vmath("SUBTRACT", shadowed, unshadowed)
 
 
 def _march(g, gin, camera, direction, length, sun, layout: ShaftLayout, shadow_test, integration):

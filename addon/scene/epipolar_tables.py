@@ -5,13 +5,14 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from ...lut_gen import epipolar
+from ...lut_gen import epipolar, epipolar_air
 from .. import nodes, props
 from . import luts
 
 LIT_IMAGE = nodes.epipolar.LIT_IMAGE
 INTEGRAL_IMAGE = nodes.epipolar.INTEGRAL_IMAGE
 SAMPLING_IMAGE = nodes.epipolar.SAMPLING_IMAGE
+ALL_IMAGES = (LIT_IMAGE, INTEGRAL_IMAGE, SAMPLING_IMAGE, *nodes.epipolar.AIR_IMAGES.values())
 
 
 def table_texels(settings) -> int:
@@ -35,41 +36,44 @@ def too_large(settings) -> str | None:
             "marching runs instead (lower the slices, samples or steps to use epipolar sampling)")
 
 
+def _sized_images(layout) -> dict:
+    """{name: (width, height)} of the per-frame table images the layout reads."""
+    sizes = {LIT_IMAGE: nodes.epipolar.image_size(layout.slices, layout.samples, layout.steps)}
+    if layout.single_mode == "INTEGRATION":
+        sizes[INTEGRAL_IMAGE] = sizes[LIT_IMAGE]
+    for name in nodes.epipolar.air_images_wanted(layout):
+        sizes[name] = nodes.epipolar.air_image_size(layout.slices, layout.samples)
+    return sizes
+
+
 def ensure_images(layout):
-    """(lit image, integral image or None, sampling overlay) at the layout's size; all None for
-    brute force."""
+    """(lit image, integral image or None, sampling overlay, {name: in-scattering image}) at
+    the layout's sizes; None and {} for brute force."""
     if not layout.epipolar:
-        return None, None, None
-    width, height = nodes.epipolar.image_size(layout.slices, layout.samples, layout.steps)
-    images = []
-    for name, wanted in ((LIT_IMAGE, True), (INTEGRAL_IMAGE, layout.single_mode == "INTEGRATION"),
-                         (SAMPLING_IMAGE, True)):
-        if not wanted:
-            images.append(None)
-            continue
+        return None, None, None, {}
+    images = {}
+    for name, (width, height) in _sized_images(layout).items():
         image = bpy.data.images.get(name)
-        if name == SAMPLING_IMAGE:          # any size: written at the render's each frame
-            images.append(image or luts.write_data_image(name, np.zeros((1, 1, 4), dtype=np.float32)))
-        elif image is None or tuple(image.size) != (width, height):
-            images.append(luts.write_data_image(name, np.zeros((height, width, 4), dtype=np.float32)))
-        else:
-            images.append(image)
-    return tuple(images)
+        if image is None or tuple(image.size) != (width, height):
+            image = luts.write_data_image(name, np.zeros((height, width, 4), dtype=np.float32))
+        images[name] = image
+    sampling = bpy.data.images.get(SAMPLING_IMAGE)      # any size: written at the render's each frame
+    sampling = sampling or luts.write_data_image(SAMPLING_IMAGE, np.zeros((1, 1, 4), dtype=np.float32))
+    air = {name: images[name] for name in nodes.epipolar.air_images_wanted(layout)}
+    return images[LIT_IMAGE], images.get(INTEGRAL_IMAGE), sampling, air
 
 
 def images_intact(layout) -> bool:
     if not layout.epipolar:
         return True
-    width, height = nodes.epipolar.image_size(layout.slices, layout.samples, layout.steps)
-    sized = [LIT_IMAGE] + ([INTEGRAL_IMAGE] if layout.single_mode == "INTEGRATION" else [])
-    return (bpy.data.images.get(SAMPLING_IMAGE) is not None      # any size: written per frame
-            and all(bpy.data.images.get(n) is not None and tuple(bpy.data.images[n].size) == (width, height)
-                    for n in sized))
+    return (bpy.data.images.get(SAMPLING_IMAGE) is not None
+            and all(bpy.data.images.get(name) is not None and tuple(bpy.data.images[name].size) == size
+                    for name, size in _sized_images(layout).items()))
 
 
-def update(scene, camera, sun_direction, cascades, luts_object=None) -> dict:
+def update(scene, camera, sun_direction, cascades, luts_object) -> dict:
     """Build the frame's tables, write them into the images; the "OLS Frame Values" rows.
-    ``luts_object`` (lut_gen.Luts) only for the INTEGRATION mode."""
+    ``luts_object``: the bake as lut_gen.Luts."""
     settings = props.Sanitized(scene.ols)
     percent = scene.render.resolution_percentage / 100.0
     width = max(int(scene.render.resolution_x * percent), 1)
@@ -84,10 +88,16 @@ def update(scene, camera, sun_direction, cascades, luts_object=None) -> dict:
     luts.write_data_image(LIT_IMAGE, lit)
     if integral is not None:
         luts.write_data_image(INTEGRAL_IMAGE, integral)
+    air = epipolar_air.air_frame(frame, camera)
+    air_tables = epipolar_air.build(luts_object, air, camera.position, settings.multiple_scattering_mode)
+    for name, pixels in nodes.epipolar.pack_air(air_tables).items():
+        luts.write_data_image(name, pixels)
     overlay = np.zeros((1, 1, 4), dtype=np.float32)
     if settings.show_sampling:
         dots = epipolar.sampling_overlay(frame, tables.marched, camera, width, height)
         overlay = np.zeros((height, width, 4), dtype=np.float32)
         overlay[..., 0] = dots
     luts.write_data_image(SAMPLING_IMAGE, overlay)
-    return frame.as_values()
+    values = frame.as_values()
+    values["Epipolar Depth"] = (frame.t_max, frame.growth, air.t_max)
+    return values

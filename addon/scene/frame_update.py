@@ -52,6 +52,7 @@ def write_frame_values(scene, depsgraph=None, cascades=None, extra=None):
 
 
 def _frame_key(scene, depsgraph):
+    from .wiring import WIRED_KEY           # (wiring imports this module)
     camera = scene.camera.evaluated_get(depsgraph) if scene.camera is not None else None
     sun, strength = shadow_maps.sun_state(scene, depsgraph)
     settings = props.Sanitized(scene.ols)
@@ -62,12 +63,10 @@ def _frame_key(scene, depsgraph):
             scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage,
             epipolar_tables.technique(settings), epipolar.settings_from(settings), settings.single_scattering_mode,
             settings.smooth_shadows, settings.best_cascade_search, settings.first_cascade_to_ray_march,
-            settings.show_sampling)
+            settings.show_sampling, settings.multiple_scattering_mode, scene.get(WIRED_KEY))
 
 
 def _numpy_luts(scene):
-    if scene.ols.single_scattering_mode != "INTEGRATION":
-        return None
     from . import wiring
     return wiring.bake_info(scene).numpy_luts()
 

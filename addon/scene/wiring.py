@@ -266,7 +266,7 @@ class BakeInfo:
         self._luts = None
 
     def numpy_luts(self):
-        """The bake as lut_gen.Luts (read on first use: the epipolar INTEGRATION mode needs it)."""
+        """The bake as lut_gen.Luts (read on first use: the epipolar tables need it)."""
         if self._luts is None:
             self._luts = lut_gen.load(Path(bpy.path.abspath(self.multiple.filepath)).parent, params=self.params)
         return self._luts
@@ -321,7 +321,7 @@ def unwire_scene(scene):
     """Restore the world, materials and compositor the scene had before wiring."""
     compositor.unwire_compositor(scene)
     if not any(other.get(WIRED_KEY) for other in bpy.data.scenes if other != scene):
-        shadow_maps.remove_images(compositor.FRAME_IMAGE, epipolar_tables.LIT_IMAGE, epipolar_tables.INTEGRAL_IMAGE)
+        shadow_maps.remove_images(compositor.FRAME_IMAGE, *epipolar_tables.ALL_IMAGES)
     previous = scene.get(PREVIOUS_WORLD)
     scene.world = bpy.data.worlds.get(previous) if previous else None
     for obj in scene.objects:

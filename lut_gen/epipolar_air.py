@@ -1,0 +1,155 @@
+"""The air's in-scattering along the epipolar table rays: what lets the epipolar technique
+apply the sample's scattering modes with texture fetches instead of per-pixel eq. (8).
+
+Eq. (8) for a lit section a -> b of a view ray seen from the camera C is
+    T(C->a) S(a) - T(C->b) S(b) = I(b) - I(a),   I(t) = S(C) - T(C->X_t) S(X_t),
+the in-scattering gathered from the camera out to distance t. So each mode needs I at three
+distances of the pixel's ray (the first lit distance F, F + lit length, the ray's end), and
+the shadowed minus the unshadowed in-scattering the pass adds is
+
+    single LUT:        [I_s(F + L) - I_s(F)] - I_s(end)
+    multiple OCCLUDED: [I_h(F + L) - I_h(F)] - I_h(end)     (NONE: - I_h(end); UNOCCLUDED: 0)
+    single INTEGRATION: the marched integral - I_s(end);    NONE: - I_s(end)
+
+(UNOCCLUDED's higher orders cancel against the unshadowed pass's.) With no occluders
+(F = 0, L = end) the difference is exactly 0, and in full shadow only the multiple
+scattering's share stays, as for brute force.
+
+Before each frame numpy evaluates I at the nodes of a coarser grid of the same (phi, theta)
+parametrisation as the lit-length tables (lut_gen.epipolar) and a geometric distance grid out
+to the camera's reach. The phase functions are divided out at each node (they are constant
+along a ray) and applied per pixel, so the Mie peak around the sun is exact and what is
+interpolated across directions varies slowly: Rayleigh single scattering / P_R, single Mie
+scattering / P_M and the higher orders / P_R, as the 4D tables store them (lut_gen.sampling).
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import aerial, geometry
+from . import parameterization as par
+from .atmosphere import mie_phase, rayleigh_phase
+from .epipolar import MIN_NEAR, EpipolarFrame, corner_cosine, trilinear
+from .sampling import Luts
+from .shadow_map import Camera
+
+AIR_SLICES = 64             # directions of the in-scattering grid at most (it varies slowly with direction)
+AIR_SAMPLES = 32
+AIR_DISTANCES = 32          # geometric from MIN_NEAR to the reach
+MAX_REACH = 400e3           # m: a camera with no clip end sees no farther than this through the air
+
+
+@dataclass
+class AirTables:
+    """Per grid node (slices + 1, samples) and distance: I / phase for the Rayleigh and the
+    Mie single scattering and (when a mode needs them) the higher orders."""
+    rayleigh: np.ndarray
+    mie: np.ndarray
+    higher: np.ndarray | None
+
+
+def needs_higher(multiple_mode: str) -> bool:
+    """UNOCCLUDED's higher orders cancel against the unshadowed pass's."""
+    return multiple_mode != "UNOCCLUDED"
+
+
+def air_dims(slices: int, samples: int):
+    """(slices, samples, distances) of the in-scattering grid for lit-length tables of
+    ``slices`` x ``samples``."""
+    return min(slices, AIR_SLICES), min(samples, AIR_SAMPLES), AIR_DISTANCES
+
+
+def air_frame(frame: EpipolarFrame, camera: Camera) -> EpipolarFrame:
+    """The in-scattering grid of ``frame``: the same angles, at most AIR_SLICES x AIR_SAMPLES
+    directions, and distances out to what the camera can see (its clip end at the screen's
+    corner), at least the lit-length tables' reach."""
+    reach = max(frame.t_max, min(float(camera.clip_end), MAX_REACH) / corner_cosine(camera))
+    slices, samples, distances = air_dims(frame.slices, frame.samples)
+    return dataclasses.replace(frame, slices=slices, samples=samples, steps=distances, t_max=reach,
+                               growth=reach / MIN_NEAR)
+
+
+def _ground_distance(luts: Luts, camera, directions) -> np.ndarray:
+    """Distance from the camera to the ground along ``directions`` (inf where they miss it).
+    A ray's I(t) stays at its value there beyond: no pixel's ray runs on under the ground, and
+    a pixel near the ground's horizon blends nodes of rays that end there and of rays that do not."""
+    radius = luts.params.earth_radius
+    centre = camera + np.array([0.0, 0.0, radius])
+    r = np.linalg.norm(centre, axis=-1)
+    cos_zenith = np.sum(centre / r[..., None] * directions, axis=-1)
+    hits = cos_zenith < par.cos_horizon(r - radius, radius)
+    return np.where(hits, geometry.distance_to_ground(r, cos_zenith, radius) * (1.0 - 1e-6), np.inf)
+
+
+def build(luts: Luts, frame: EpipolarFrame, camera_position, multiple_mode: str) -> AirTables:
+    """I / phase at the nodes of ``frame`` (an air_frame) seen from ``camera_position``."""
+    directions = frame.node_directions()[:, :, None, :]                    # (S+1, N, 1, 3)
+    camera = np.broadcast_to(np.asarray(camera_position, dtype=np.float64), directions.shape)
+    t = np.minimum(frame.distances(), _ground_distance(luts, camera, directions))      # (S+1, N, K)
+    points = camera + directions * t[..., None]
+    transmittance = aerial.segment_transmittance(luts, camera, points)
+
+    def inscattering(table):
+        radiance = aerial._eq8(luts, camera, points, directions, frame.sun, table, 1.0, transmittance,
+                               phase_free=True).astype(np.float32)
+        radiance[:, :, 0] = 0.0         # I(0) = 0 (eq. 8's clamp and float error leave a trace)
+        return radiance
+
+    higher = inscattering("higher") if needs_higher(multiple_mode) else None
+    return AirTables(inscattering("single"), inscattering("single_mie"), higher)
+
+
+def inscattering(luts: Luts, frame: EpipolarFrame, tables: AirTables, part: str, direction, distance) -> np.ndarray:
+    """(..., 3) I(distance) per unit sun along pixel rays ``direction`` for ``part`` "single"
+    or "higher", the phase functions applied at the pixel's own angle from the sun."""
+    cos_theta = np.sum(direction * frame.sun, axis=-1)
+    p_r = rayleigh_phase(cos_theta)[..., None]
+    if part == "higher":
+        return p_r * trilinear(frame, tables.higher, direction, distance)
+    p_m = mie_phase(cos_theta, luts.params.mie_g)[..., None]
+    return p_r * trilinear(frame, tables.rayleigh, direction, distance) + p_m * trilinear(frame, tables.mie,
+                                                                                      direction, distance)
+
+
+def shadow_difference(luts: Luts, frame: EpipolarFrame, tables: AirTables, direction, length, lit_length,
+                      first_lit, integrated, single_mode: str, multiple_mode: str) -> np.ndarray:
+    """(..., 3) shadowed minus unshadowed in-scattering per unit sun of pixel rays
+    ``direction`` of ``length``, from what the lit-length tables found (module docstring)."""
+    aerial.check_modes(single_mode, multiple_mode)
+    has_lit = (lit_length > 0)[..., None]
+    lit_end = first_lit + lit_length
+
+    def at(part, distance):
+        return inscattering(luts, frame, tables, part, direction, distance)
+
+    def lit_section(part):
+        return has_lit * (at(part, lit_end) - at(part, first_lit))
+
+    difference = -at("single", length)
+    if single_mode == "LUT":
+        difference = difference + lit_section("single")
+    elif single_mode == "INTEGRATION":
+        difference = difference + integrated
+    if multiple_mode == "OCCLUDED":
+        difference = difference + lit_section("higher") - at("higher", length)
+    elif multiple_mode == "NONE":
+        difference = difference - at("higher", length)
+    return difference
+
+
+def light_shaft_difference(luts: Luts, camera: Camera, end, frame: EpipolarFrame, lit_tables, air: EpipolarFrame,
+                           air_tables: AirTables, single_mode: str = "LUT",
+                           multiple_mode: str = "UNOCCLUDED") -> np.ndarray:
+    """(..., 3) shadowed minus unshadowed in-scattering along camera -> end per unit sun: the
+    lit-length tables (lut_gen.epipolar.build_tables on ``frame``) read at each pixel's own
+    depth, the modes applied from the in-scattering tables (``build`` on ``air``)."""
+    from .epipolar import look_up
+    ray = np.asarray(end, dtype=np.float64) - camera.position
+    length = np.linalg.norm(ray, axis=-1)
+    direction = ray / np.maximum(length, 1e-9)[..., None]
+    lit_length, first_lit, integrated = look_up(frame, lit_tables, direction, length)
+    return shadow_difference(luts, air, air_tables, direction, length, lit_length, first_lit, integrated,
+                             single_mode, multiple_mode)
