@@ -309,16 +309,18 @@ def _disagreeing_spans(lit_length, marched, t, threshold):
 
 
 def _fill_between_marched(table, marched):
-    """Linear interpolation along each slice's samples from its marched ones."""
-    samples = np.arange(marched.shape[1])
-    for s in range(marched.shape[0]):
-        idx = np.flatnonzero(marched[s])
-        if len(idx) == len(samples):
-            continue
-        flat = table[s].reshape(len(samples), -1)
-        for c in range(flat.shape[1]):
-            flat[:, c] = np.interp(samples, idx, flat[idx, c])
-        table[s] = flat.reshape(table[s].shape)
+    """Linear interpolation along each slice's samples from its marched ones (the first and
+    the last sample of a slice are always marched), all slices at once."""
+    n_samples = marched.shape[1]
+    samples = np.broadcast_to(np.arange(n_samples), marched.shape)
+    before = np.maximum.accumulate(np.where(marched, samples, 0), axis=1)
+    after = np.minimum.accumulate(np.where(marched, samples, n_samples - 1)[:, ::-1], axis=1)[:, ::-1]
+    span = np.maximum(after - before, 1)
+    weight = ((samples - before) / span).reshape(marched.shape + (1,) * (table.ndim - 2))
+    extra = (1,) * (table.ndim - 2)
+    low = np.take_along_axis(table, before.reshape(marched.shape + extra), axis=1)
+    high = np.take_along_axis(table, after.reshape(marched.shape + extra), axis=1)
+    table[...] = np.where(marched.reshape(marched.shape + extra), table, low + (high - low) * weight)
 
 
 def trilinear(frame: EpipolarFrame, table, directions, distances) -> np.ndarray:

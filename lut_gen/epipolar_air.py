@@ -13,7 +13,9 @@ the shadowed minus the unshadowed in-scattering the pass adds is
 
 (UNOCCLUDED's higher orders cancel against the unshadowed pass's.) With no occluders
 (F = 0, L = end) the difference is exactly 0, and in full shadow only the multiple
-scattering's share stays, as for brute force.
+scattering's share stays, as for brute force. The aerial perspective's own in-scattering
+I_s(end) + I_h(end) comes from the same tables, so the pass evaluates no eq. (8) per pixel at
+all (the seed's epipolar technique interpolates all of its in-scattering too).
 
 Before each frame numpy evaluates I at the nodes of a coarser grid of the same (phi, theta)
 parametrisation as the lit-length tables (lut_gen.epipolar) and a geometric distance grid out
@@ -45,15 +47,10 @@ MAX_REACH = 400e3           # m: a camera with no clip end sees no farther than 
 @dataclass
 class AirTables:
     """Per grid node (slices + 1, samples) and distance: I / phase for the Rayleigh and the
-    Mie single scattering and (when a mode needs them) the higher orders."""
+    Mie single scattering and the higher orders."""
     rayleigh: np.ndarray
     mie: np.ndarray
-    higher: np.ndarray | None
-
-
-def needs_higher(multiple_mode: str) -> bool:
-    """UNOCCLUDED's higher orders cancel against the unshadowed pass's."""
-    return multiple_mode != "UNOCCLUDED"
+    higher: np.ndarray
 
 
 def air_dims(slices: int, samples: int):
@@ -73,23 +70,41 @@ def air_frame(frame: EpipolarFrame, camera: Camera) -> EpipolarFrame:
 
 
 def _ground_distance(luts: Luts, camera, directions) -> np.ndarray:
-    """Distance from the camera to the ground along ``directions`` (inf where they miss it).
-    A ray's I(t) stays at its value there beyond: no pixel's ray runs on under the ground, and
-    a pixel near the ground's horizon blends nodes of rays that end there and of rays that do not."""
+    """Distance from the camera to the ground along ``directions`` (inf where they miss it)."""
     radius = luts.params.earth_radius
     centre = camera + np.array([0.0, 0.0, radius])
     r = np.linalg.norm(centre, axis=-1)
     cos_zenith = np.sum(centre / r[..., None] * directions, axis=-1)
     hits = cos_zenith < par.cos_horizon(r - radius, radius)
-    return np.where(hits, geometry.distance_to_ground(r, cos_zenith, radius) * (1.0 - 1e-6), np.inf)
+    return np.where(hits, geometry.distance_to_ground(r, cos_zenith, radius), np.inf)
 
 
-def build(luts: Luts, frame: EpipolarFrame, camera_position, multiple_mode: str) -> AirTables:
+def _above_ground(luts: Luts, camera, directions, t) -> np.ndarray:
+    """(..., K, 3): ``directions`` raised in their vertical plane, where needed, so that each
+    reaches distance ``t`` (K,) in the air: a ray that would hit the ground sooner is replaced
+    by the one that meets the ground at t. A pixel's ray never runs on under the ground, and
+    the pixel on the ground at distance t near the ground's horizon is that very ray: so the
+    nodes around it hold the air a pixel there sees (clamping I at each node's own ground hit
+    instead left a haze band 12-16% too dark along a plain's horizon)."""
+    radius = luts.params.earth_radius
+    centre = camera + np.array([0.0, 0.0, radius])
+    r = np.linalg.norm(centre, axis=-1)                                        # (..., 1)
+    up = centre / r[..., None]
+    cos_zenith = np.sum(up * directions, axis=-1)                              # (..., 1)
+    t = np.asarray(t, dtype=np.float64)
+    # Zenith cosine of the ray from radius r that meets the ground (radius R) at distance t.
+    meets_at_t = (radius * radius - r * r - t * t) / (2.0 * r * np.maximum(t, 1e-9))
+    raised = np.maximum(cos_zenith, np.minimum(meets_at_t, 1.0))              # (..., K)
+    return aerial._tilted(up, directions, raised)
+
+
+def build(luts: Luts, frame: EpipolarFrame, camera_position) -> AirTables:
     """I / phase at the nodes of ``frame`` (an air_frame) seen from ``camera_position``."""
-    directions = frame.node_directions()[:, :, None, :]                    # (S+1, N, 1, 3)
-    camera = np.broadcast_to(np.asarray(camera_position, dtype=np.float64), directions.shape)
-    t = np.minimum(frame.distances(), _ground_distance(luts, camera, directions))      # (S+1, N, K)
-    points = camera + directions * t[..., None]
+    nodes = frame.node_directions()[:, :, None, :]                         # (S+1, N, 1, 3)
+    camera = np.broadcast_to(np.asarray(camera_position, dtype=np.float64), nodes.shape)
+    t = frame.distances()
+    directions = _above_ground(luts, camera, nodes, t)                     # (S+1, N, K, 3)
+    points = camera + directions * t[:, None]
     transmittance = aerial.segment_transmittance(luts, camera, points)
 
     def inscattering(table):
@@ -98,8 +113,7 @@ def build(luts: Luts, frame: EpipolarFrame, camera_position, multiple_mode: str)
         radiance[:, :, 0] = 0.0         # I(0) = 0 (eq. 8's clamp and float error leave a trace)
         return radiance
 
-    higher = inscattering("higher") if needs_higher(multiple_mode) else None
-    return AirTables(inscattering("single"), inscattering("single_mie"), higher)
+    return AirTables(inscattering("single"), inscattering("single_mie"), inscattering("higher"))
 
 
 def inscattering(luts: Luts, frame: EpipolarFrame, tables: AirTables, part: str, direction, distance) -> np.ndarray:
@@ -114,42 +128,43 @@ def inscattering(luts: Luts, frame: EpipolarFrame, tables: AirTables, part: str,
                                                                                       direction, distance)
 
 
+def table_uses(single_mode: str, multiple_mode: str) -> dict:
+    """{"single": [(distance, sign)], "higher": [...]}: the I(distance) terms whose sum is the
+    shadowed minus unshadowed in-scattering for the modes (module docstring); distances are
+    "end" (the ray's), "first" (first lit) and "lit_end" (first lit + lit length). Without a
+    lit part the lit end is the first lit distance and the section is 0."""
+    aerial.check_modes(single_mode, multiple_mode)
+    section = [("lit_end", 1.0), ("first", -1.0)]
+    single = [("end", -1.0)] + (section if single_mode == "LUT" else [])
+    higher = {"OCCLUDED": section + [("end", -1.0)], "NONE": [("end", -1.0)]}.get(multiple_mode, [])
+    return {"single": single, "higher": higher}
+
+
 def shadow_difference(luts: Luts, frame: EpipolarFrame, tables: AirTables, direction, length, lit_length,
                       first_lit, integrated, single_mode: str, multiple_mode: str) -> np.ndarray:
     """(..., 3) shadowed minus unshadowed in-scattering per unit sun of pixel rays
     ``direction`` of ``length``, from what the lit-length tables found (module docstring)."""
-    aerial.check_modes(single_mode, multiple_mode)
-    has_lit = (lit_length > 0)[..., None]
-    lit_end = first_lit + lit_length
-
-    def at(part, distance):
-        return inscattering(luts, frame, tables, part, direction, distance)
-
-    def lit_section(part):
-        return has_lit * (at(part, lit_end) - at(part, first_lit))
-
-    difference = -at("single", length)
-    if single_mode == "LUT":
-        difference = difference + lit_section("single")
-    elif single_mode == "INTEGRATION":
+    distances = {"end": length, "first": first_lit, "lit_end": first_lit + lit_length}
+    difference = 0.0
+    for part, uses in table_uses(single_mode, multiple_mode).items():
+        for name, sign in uses:
+            difference = difference + sign * inscattering(luts, frame, tables, part, direction, distances[name])
+    if single_mode == "INTEGRATION":
         difference = difference + integrated
-    if multiple_mode == "OCCLUDED":
-        difference = difference + lit_section("higher") - at("higher", length)
-    elif multiple_mode == "NONE":
-        difference = difference - at("higher", length)
     return difference
 
 
 def light_shaft_difference(luts: Luts, camera: Camera, end, frame: EpipolarFrame, lit_tables, air: EpipolarFrame,
-                           air_tables: AirTables, single_mode: str = "LUT",
-                           multiple_mode: str = "UNOCCLUDED") -> np.ndarray:
-    """(..., 3) shadowed minus unshadowed in-scattering along camera -> end per unit sun: the
-    lit-length tables (lut_gen.epipolar.build_tables on ``frame``) read at each pixel's own
-    depth, the modes applied from the in-scattering tables (``build`` on ``air``)."""
+                           air_tables: AirTables, single_mode: str = "LUT", multiple_mode: str = "UNOCCLUDED"):
+    """((..., 3) unshadowed in-scattering along camera -> end per unit sun, (..., 3) shadowed
+    minus unshadowed): the aerial perspective's in-scattering and the light shafts, both from
+    the tables: the lit-length tables (lut_gen.epipolar.build_tables on ``frame``) read at each
+    pixel's own depth, the in-scattering tables (``build`` on ``air``)."""
     from .epipolar import look_up
     ray = np.asarray(end, dtype=np.float64) - camera.position
     length = np.linalg.norm(ray, axis=-1)
     direction = ray / np.maximum(length, 1e-9)[..., None]
     lit_length, first_lit, integrated = look_up(frame, lit_tables, direction, length)
-    return shadow_difference(luts, air, air_tables, direction, length, lit_length, first_lit, integrated,
-                             single_mode, multiple_mode)
+    unshadowed = sum(inscattering(luts, air, air_tables, part, direction, length) for part in ("single", "higher"))
+    return unshadowed, shadow_difference(luts, air, air_tables, direction, length, lit_length, first_lit, integrated,
+                                         single_mode, multiple_mode)

@@ -38,12 +38,13 @@ def gather(packed: np.ndarray, width: int, index: np.ndarray) -> np.ndarray:
     return np.take(packed, index.reshape(-1)).view(np.float32).reshape(index.shape + (width,))
 
 
-def interpolate(table: np.ndarray, coords, chunk: int = 1 << 20, geometric_axes=()) -> np.ndarray:
+def interpolate(table: np.ndarray, coords, chunk: int = 1 << 20, geometric_axes=(), packed=None) -> np.ndarray:
     """Linear interpolation of ``table`` (*axes, C) at texel coordinates ``coords`` (one array per
     axis, broadcast together). Returns (*broadcast shape, C) float32.
 
     ``geometric_axes``: axes blended geometrically (geometric_lerp) after the linear blend of the
-    others, i.e. bilinear in log space on those axes."""
+    others, i.e. bilinear in log space on those axes. ``packed``: packed_rows(table), when the
+    caller keeps it (packing copies the table)."""
     axes = table.shape[:-1]
     if len(coords) != len(axes):
         raise ValueError(f"{len(axes)}D table needs {len(axes)} coordinates, got {len(coords)}")
@@ -51,7 +52,7 @@ def interpolate(table: np.ndarray, coords, chunk: int = 1 << 20, geometric_axes=
     shape = coords[0].shape
     flat_coords = [c.reshape(-1) for c in coords]
     channels = table.shape[-1]
-    packed, width = packed_rows(table)
+    packed, width = packed if packed is not None else packed_rows(table)
     strides = np.cumprod((1,) + axes[::-1])[:-1][::-1]
     out = np.empty((flat_coords[0].size, table.shape[-1]), dtype=np.float32)
     for start in range(0, out.shape[0], chunk):

@@ -24,7 +24,7 @@ import numpy as np
 
 from . import parameterization as par
 from .atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
-from .interpolation import interpolate
+from .interpolation import interpolate, packed_rows
 
 # The 4D tables are blended geometrically along height and sun zenith (lut_gen.interpolation):
 # at twilight and near the ground the radiance changes by a factor per node there, not by a
@@ -67,14 +67,15 @@ def horizon_safe_cos(params: AtmosphereParams, height_m, cos_zenith, n_heights: 
     return np.where(above, np.maximum(cos_zenith, first_node_above), cos_zenith)
 
 
-def table_net_density(params: AtmosphereParams, optical_depth: np.ndarray, height_m, cos_zenith) -> np.ndarray:
+def table_net_density(params: AtmosphereParams, optical_depth: np.ndarray, height_m, cos_zenith,
+                      packed=None) -> np.ndarray:
     """(..., 3) net densities to the top read from an optical-depth table (float64)."""
     n_h, n_c = optical_depth.shape[:2]
     height = np.asarray(height_m, dtype=np.float64)
     xh = par.unit_to_centre_x(height / params.atmosphere_height, n_h)
     cos_zenith = horizon_safe_cos(params, height, cos_zenith, n_h, n_c)
     xc = par.unit_to_centre_x(cos_zenith * 0.5 + 0.5, n_c)
-    net = interpolate(optical_depth, (xh, xc)).astype(np.float64)
+    net = interpolate(optical_depth, (xh, xc), packed=packed).astype(np.float64)
     return net * below_first_row_factors(params, height, n_h)
 
 
@@ -97,6 +98,11 @@ class Luts:
     multiple: Optional[np.ndarray] = None
     timings: dict = field(default_factory=dict)
     single_mie: Optional[np.ndarray] = None
+    # Packed copies of the 4D tables for look-ups (interpolation.packed_rows), kept once
+    # keep_packed() is called: a caller that looks up every frame (the add-on's epipolar
+    # tables) saves the copy each look-up makes (0.5 s a frame for the default tables), for
+    # a third more memory per table used.
+    _packed: Optional[dict] = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         if self.multiple is None:
@@ -120,6 +126,18 @@ class Luts:
     def dims(self) -> Tuple[int, int, int, int]:
         return tuple(int(n) for n in self.single.shape[:4])
 
+    def keep_packed(self) -> "Luts":
+        if self._packed is None:
+            self._packed = {}
+        return self
+
+    def _packed_table(self, name: str):
+        if self._packed is None:
+            return None
+        if name not in self._packed:
+            self._packed[name] = packed_rows(getattr(self, name))
+        return self._packed[name]
+
     def table(self, name: str) -> np.ndarray:
         if name not in STORED_TABLES:
             raise ValueError(f"table must be one of {', '.join(STORED_TABLES)}, got {name!r}")
@@ -139,18 +157,21 @@ class Luts:
         xh, xa, xs, xt, above = par.world_to_x(self.params, self.dims, height_m, cos_view_zenith,
                                                cos_sun_zenith, cos_sun_view, above_horizon)
         coords = (xh, xa, xs, xt)
-        radiance = interpolate(self.table(table), coords, geometric_axes=GEOMETRIC_AXES)
+        radiance = interpolate(self.table(table), coords, geometric_axes=GEOMETRIC_AXES,
+                               packed=self._packed_table(table))
         if not phase_free:
             radiance = radiance * rayleigh_phase(cos_sun_view)[..., None].astype(np.float32)
         if table in TABLES_WITH_MIE and not phase_free:
             phase = mie_phase(cos_sun_view, self.params.mie_g)[..., None].astype(np.float32)
-            radiance += interpolate(self.single_mie, coords, geometric_axes=GEOMETRIC_AXES) * phase
+            radiance += interpolate(self.single_mie, coords, geometric_axes=GEOMETRIC_AXES,
+                                    packed=self._packed_table("single_mie")) * phase
         scale = par.look_up_scale(self.params, height_m, cos_view_zenith, above)
         return radiance * scale[..., None].astype(np.float32)
 
     # -- optical depth and transmittance -------------------------------------
     def net_density_to_top(self, height_m, cos_zenith) -> np.ndarray:
-        return table_net_density(self.params, self.optical_depth, height_m, cos_zenith)
+        return table_net_density(self.params, self.optical_depth, height_m, cos_zenith,
+                                 self._packed_table("optical_depth"))
 
     def transmittance_to_top(self, height_m, cos_zenith) -> np.ndarray:
         """Sun/sky transmittance from a point to the top of the atmosphere; 0 where the ray

@@ -11,7 +11,8 @@ shadow cascade (sky):
     sky:      L_sky + (S(C->E) - S_unshadowed(C->E)) x sun x scale
 where S is the light-shaft in-scattering (lut_gen.aerial.light_shafts, the sample's modes) and
 S_unshadowed is eq. (8) over the multiple-scattering table, which the rendered sky already holds.
-Without light shafts S = S_unshadowed (aerial perspective only).
+Without light shafts S = S_unshadowed (aerial perspective only). With the epipolar technique
+both S and S_unshadowed come from its tables (lut_gen.epipolar_air), not from eq. (8) per pixel.
 """
 from __future__ import annotations
 
@@ -84,13 +85,15 @@ def scattering_pass(luts: Luts, image, position, depth, camera: Camera, sun_dire
     scale = settings.sun_strength * settings.scattering_scale
     transmittance = aerial.segment_transmittance(luts, camera.position, end)
     surface = image * transmittance * (0.0 if settings.lighting_only else 1.0)
-    unshadowed = aerial.segment_inscattering(luts, camera.position, end, sun)
-    out = np.where(geometry[..., None], surface + unshadowed * scale, image)
+    shafts = settings.enable_light_shafts and cascades is not None
     overlay = None
-    if settings.enable_light_shafts and cascades is not None:
-        difference, overlay = shadow_difference(luts, camera, end, sun, cascades, settings, width, height,
-                                                unshadowed)
-        out = out + difference * scale
+    if shafts and settings.scattering_technique == "EPIPOLAR_SAMPLING":
+        # The aerial perspective's in-scattering and the shafts, both from the epipolar tables.
+        unshadowed, difference, overlay = epipolar_pass(luts, camera, end, sun, cascades, settings, width, height)
+    else:
+        unshadowed = aerial.segment_inscattering(luts, camera.position, end, sun)
+        difference = light_shafts(luts, camera, end, sun, cascades, settings, unshadowed) if shafts else 0.0
+    out = np.where(geometry[..., None], surface + unshadowed * scale, image) + difference * scale
     if settings.show_cascades and cascades is not None:
         out = np.where(geometry[..., None], out * cascade_tint(cascades, end, camera, settings), out)
     if overlay is not None:
@@ -105,32 +108,35 @@ def sampling_red(radiance):
     return np.stack([red, np.zeros_like(red), np.zeros_like(red)], axis=-1)
 
 
-def shadow_difference(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades, settings: PassSettings,
-                      width: int, height: int, unshadowed):
-    """(shadowed minus unshadowed in-scattering per unit sun of every pixel with the settings'
-    technique, Show Sampling's overlay or None). Brute force marches each pixel and subtracts
-    ``unshadowed`` (eq. 8 over the multiple-scattering table); epipolar sampling reads both
-    from its tables (lut_gen.epipolar_air)."""
-    if settings.scattering_technique == "EPIPOLAR_SAMPLING":
-        wanted = epipolar.settings_from(settings)
-        frame = epipolar.frame_for(camera, sun, width, height, float(cascades.far_depths[-1]), wanted)
-        tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
-                                       settings.best_cascade_search, settings.first_cascade_to_ray_march, luts,
-                                       settings.single_scattering_mode == "INTEGRATION")
-        overlay = (epipolar.sampling_overlay(frame, tables.marched, camera, width, height)
-                   if settings.show_sampling else None)
-        air = epipolar_air.air_frame(frame, camera)
-        air_tables = epipolar_air.build(luts, air, camera.position, settings.multiple_scattering_mode)
-        return epipolar_air.light_shaft_difference(luts, camera, end, frame, tables, air, air_tables,
-                                                   settings.single_scattering_mode,
-                                                   settings.multiple_scattering_mode), overlay
+def epipolar_pass(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades, settings: PassSettings,
+                  width: int, height: int):
+    """(unshadowed in-scattering, shadowed minus unshadowed, Show Sampling's overlay or None)
+    per unit sun of every pixel, from the epipolar tables (lut_gen.epipolar, epipolar_air)."""
+    wanted = epipolar.settings_from(settings)
+    frame = epipolar.frame_for(camera, sun, width, height, float(cascades.far_depths[-1]), wanted)
+    tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
+                                   settings.best_cascade_search, settings.first_cascade_to_ray_march, luts,
+                                   settings.single_scattering_mode == "INTEGRATION")
+    overlay = (epipolar.sampling_overlay(frame, tables.marched, camera, width, height)
+               if settings.show_sampling else None)
+    air = epipolar_air.air_frame(frame, camera)
+    air_tables = epipolar_air.build(luts, air, camera.position)
+    unshadowed, difference = epipolar_air.light_shaft_difference(
+        luts, camera, end, frame, tables, air, air_tables, settings.single_scattering_mode,
+        settings.multiple_scattering_mode)
+    return unshadowed, difference, overlay
 
+
+def light_shafts(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades, settings: PassSettings,
+                 unshadowed):
+    """Shadowed minus ``unshadowed`` in-scattering per unit sun of every pixel by brute-force
+    ray marching (eq. 8 per pixel)."""
     def is_lit(points):
         return visibility(cascades, points, camera, settings.smooth_shadows,
                           settings.best_cascade_search, settings.first_cascade_to_ray_march)
     shadowed = aerial.light_shafts(luts, camera.position, end, sun, is_lit, settings.num_integration_steps,
                                    settings.single_scattering_mode, settings.multiple_scattering_mode)
-    return shadowed - unshadowed, None
+    return shadowed - unshadowed
 
 
 def cascade_tint(cascades: ShadowCascades, points, camera: Camera, settings: PassSettings):

@@ -233,15 +233,17 @@ def _overlapping(triangles_light, low, high, center, half):
 
 def select_cascade(cascades: ShadowCascades, light_xy, view_depth, best_search: bool):
     """Cascade index per point; ``count`` where no cascade applies (the point is lit)."""
-    inside = np.all(np.abs(light_xy[..., None, :] - cascades.centers) <= cascades.halves, axis=-1)
+    x, y = light_xy[..., 0], light_xy[..., 1]
+    # One cascade at a time on flat arrays: an (n, cascades, 2) comparison costs several times more.
+    inside = [(np.abs(x - cx) <= hx) & (np.abs(y - cy) <= hy)
+              for (cx, cy), (hx, hy) in zip(cascades.centers, cascades.halves)]
     if best_search:
         # Nested cascades: the smallest one a point projects into is the number it misses.
-        index = cascades.count - inside.sum(axis=-1)
-    else:
-        index = np.sum(np.asarray(view_depth)[..., None] > cascades.far_depths, axis=-1)
-        clamped = np.minimum(index, cascades.count - 1)
-        index = np.where(np.take_along_axis(inside, clamped[..., None], axis=-1)[..., 0], index, cascades.count)
-    return index
+        return cascades.count - np.sum(inside, axis=0, dtype=np.int64)
+    index = np.sum(np.asarray(view_depth)[..., None] > cascades.far_depths, axis=-1)
+    clamped = np.minimum(index, cascades.count - 1)
+    covered = np.choose(clamped, inside)
+    return np.where(covered, index, cascades.count)
 
 
 PCF_OFFSETS = np.array([(0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)])

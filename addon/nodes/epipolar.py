@@ -32,6 +32,10 @@ INPUTS = [
     ("Epipolar Theta", "NodeSocketVector", (0.0, 1.0, 0.0)),
     ("Epipolar Depth", "NodeSocketVector", (1.0, 1.0, 1.0)),     # z: the in-scattering grid's reach
     ("Show Sampling", "NodeSocketFloat", 0.0),
+    # The raw render and the aerial group's transmittance: the epipolar pass makes the whole
+    # image (its "Image" input, the aerial group's, is read only when the node is muted).
+    ("Surface", "NodeSocketColor", (0.0, 0.0, 0.0, 1.0)),
+    ("Transmittance", "NodeSocketColor", (1.0, 1.0, 1.0, 1.0)),
 ]
 
 
@@ -79,9 +83,8 @@ def air_image_size(slices: int, samples: int):
 
 
 def air_images_wanted(layout) -> list:
-    """Names of the in-scattering images the layout's modes read."""
-    names = ["single", "single_mie"] + (["higher"] if epipolar_air.needs_higher(layout.multiple_mode) else [])
-    return [AIR_IMAGES[name] for name in names]
+    """Names of the in-scattering images."""
+    return list(AIR_IMAGES.values())
 
 
 def _grid_coordinates(g, gin, direction, sun):
@@ -105,65 +108,83 @@ def _distance_node(g, distance, t_max, growth, steps):
                        g.math("LOGARITHM", g.add(growth, 1.0), math.e)), float(steps - 1))
 
 
-def _fetch(g, image, dims, across, along, z):
-    """A table image (dims = slices, samples, steps) at the grid fractions and distance node
-    ``z``: bilinear in hardware along samples and distances, the slices blended by hand."""
-    S, N, K = dims
-    x = g.mul(across, float(S))
-    i0 = g.math("MINIMUM", g.math("FLOOR", x), float(S - 1))
-    w = g.sub(x, i0)
-    width, height = image_size(S, N, K)
-    u = g.div(g.mul_add(along, float(N - 1), 0.5), float(width))
-    rows = []
-    for di in (0.0, 1.0):
-        v = g.div(g.add(g.mul_add(g.add(i0, di), float(K), z), 0.5), float(height))
-        rows.append(g.image(image, g.combine(u, v, 1.0), interpolation="Linear"))
-    return g.vlerp(rows[0], rows[1], w)
+class _Grid:
+    """A table grid (dims = slices, samples, steps) at the pixel's grid fractions: the slice
+    pair and the column are found once for every fetch of its images."""
+
+    def __init__(self, g, dims, across, along):
+        self.g, self.dims = g, dims
+        S, N, K = dims
+        x = g.mul(across, float(S))
+        self.slice = g.math("MINIMUM", g.math("FLOOR", x), float(S - 1))
+        self.weight = g.sub(x, self.slice)
+        width, self.height = image_size(S, N, K)
+        self.u = g.div(g.mul_add(along, float(N - 1), 0.5), float(width))
+        self.first_row = g.mul(self.slice, float(K))
+
+    def fetch(self, image, z):
+        """``image`` at distance node ``z``: bilinear in hardware along samples and distances,
+        the two slices blended by hand."""
+        g, K = self.g, self.dims[2]
+        row = g.add(self.first_row, g.add(z, 0.5))
+        rows = [g.image(image, g.combine(self.u, g.div(g.add(row, offset), float(self.height)), 1.0),
+                        interpolation="Linear") for offset in (0.0, float(K))]
+        return g.vlerp(rows[0], rows[1], self.weight)
 
 
-def shadow_difference(g, gin, direction, length, sun, layout, images, mie_g):
-    """Shadowed minus unshadowed in-scattering per unit sun of the pixel ray ``direction`` of
-    ``length``: the lit length and first lit distance at the pixel's own depth, then the modes
-    from the in-scattering images (twin: lut_gen.epipolar_air.light_shaft_difference)."""
+def in_scattering(g, gin, direction, length, sun, geometry, layout, images, mie_g):
+    """The air's light per unit sun of the pixel ray ``direction`` of ``length``: the
+    aerial perspective's in-scattering where ``geometry`` is 1, plus the shadowed minus the
+    unshadowed in-scattering (the light shafts), all from the tables: the lit length and first
+    lit distance at the pixel's own depth, then the modes from the in-scattering images.
+    Twin: lut_gen.epipolar_air.light_shaft_difference (unshadowed x geometry + difference)."""
     lit_image, integral_image, _, air_images = images
     across, along = _grid_coordinates(g, gin, direction, sun)
     t_max, growth, reach = g.separate(gin.outputs["Epipolar Depth"])
-    dims = (layout.slices, layout.samples, layout.steps)
+    grid = _Grid(g, (layout.slices, layout.samples, layout.steps), across, along)
     z = _distance_node(g, length, t_max, growth, layout.steps)
-    lit_length, first_lit, _ = g.separate(_fetch(g, lit_image, dims, across, along, z))
+    lit_length, first_lit, _ = g.separate(grid.fetch(lit_image, z))
     # Beyond the grid (past the farthest shadow caster) the air is lit, as outside every cascade.
     beyond = g.math("MAXIMUM", g.sub(length, t_max), 0.0)
     lit_length = g.add(g.math("MINIMUM", lit_length, length), beyond)
     first_lit = g.math("MINIMUM", first_lit, length)
-    lit_end = g.add(first_lit, lit_length)
-    has_lit = g.math("GREATER_THAN", lit_length, 0.0)
+    distances = {"end": length, "first": first_lit, "lit_end": g.add(first_lit, lit_length)}
 
     air_dims = epipolar_air.air_dims(layout.slices, layout.samples)
+    air_grid = _Grid(g, air_dims, across, along)
     air_growth = g.div(reach, epipolar.MIN_NEAR)
+    nodes_at = {}
+
+    def fetch(table, name):
+        if name not in nodes_at:
+            nodes_at[name] = _distance_node(g, distances[name], reach, air_growth, air_dims[2])
+        return air_grid.fetch(air_images[AIR_IMAGES[table]], nodes_at[name])
+
+    def weights(uses):
+        """{distance: weight} of the difference's terms plus the unshadowed I(end) x geometry."""
+        merged = {"end": geometry}
+        for name, sign in uses:
+            merged[name] = g.add(merged[name], sign) if name in merged else sign
+        return merged
+
+    def combination(table, merged):
+        total = None
+        for name, weight in merged.items():
+            value = fetch(table, name)
+            if total is None:
+                total = value if weight == 1.0 else g.vscale(value, weight)
+            elif isinstance(weight, float) and abs(weight) == 1.0:
+                total = g.vmath("ADD" if weight > 0 else "SUBTRACT", total, value)
+            else:
+                total = g.vmath("ADD", total, g.vscale(value, weight))
+        return total
+
+    uses = epipolar_air.table_uses(layout.single_mode, layout.multiple_mode)
+    single = weights(uses["single"])
     cos_theta = g.vmath("DOT_PRODUCT", direction, sun)
-    rayleigh_phase = g.mul(g.mul_add(cos_theta, cos_theta, 1.0), RAYLEIGH_PHASE_NORM)
-    mie = mie_phase(g, cos_theta, mie_g)
-
-    def at(table, distance):
-        node = _distance_node(g, distance, reach, air_growth, air_dims[2])
-        return _fetch(g, air_images[AIR_IMAGES[table]], air_dims, across, along, node)
-
-    def single(distance):
-        return g.vmath("ADD", g.vscale(at("single", distance), rayleigh_phase), g.vscale(at("single_mie", distance), mie))
-
-    def higher(distance):
-        return g.vscale(at("higher", distance), rayleigh_phase)
-
-    def lit_section(part):
-        return g.vscale(g.vmath("SUBTRACT", part(lit_end), part(first_lit)), has_lit)
-
-    difference = g.vscale(single(length), -1.0)
-    if layout.single_mode == "LUT":
-        difference = g.vmath("ADD", difference, lit_section(single))
-    elif layout.single_mode == "INTEGRATION":
-        difference = g.vmath("ADD", difference, _fetch(g, integral_image, dims, across, along, z))
-    if layout.multiple_mode == "OCCLUDED":
-        difference = g.vmath("SUBTRACT", g.vmath("ADD", difference, lit_section(higher)), higher(length))
-    elif layout.multiple_mode == "NONE":
-        difference = g.vmath("SUBTRACT", difference, higher(length))
-    return difference
+    rayleigh = g.vmath("ADD", combination("single", single), combination("higher", weights(uses["higher"])))
+    light = g.vmath("ADD", g.vscale(rayleigh, g.mul(g.mul_add(cos_theta, cos_theta, 1.0), RAYLEIGH_PHASE_NORM)),
+                    g.vscale(combination("single_mie", single), mie_phase(g, cos_theta, mie_g)))
+    if layout.single_mode == "INTEGRATION":
+        light = g.vmath("ADD", light, grid.fetch(integral_image, z))
+    return light

@@ -215,8 +215,11 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     sun = g.vmath("NORMALIZE", gin.outputs["Sun Direction"])
 
     # The pixel's ray: to the surface, or (sky) to view depth "Far Depth".
+    # The epipolar pass must not read "Image": that would evaluate the aerial group's per-pixel
+    # in-scattering, which its tables replace.
+    source = gin.outputs["Surface"] if layout.epipolar else gin.outputs["Image"]
     coordinates = g.node("CompositorNodeImageCoordinates")
-    g.links.new(gin.outputs["Image"], coordinates.inputs["Image"])
+    g.links.new(source, coordinates.inputs["Image"])
     nx, ny, _ = g.separate(coordinates.outputs["Normalized"])
     tx, ty, _ = g.separate(gin.outputs["Tan Half FOV"])
     local = [g.mul(g.mul_add(nx, 2.0, -1.0), tx), g.mul(g.mul_add(ny, 2.0, -1.0), ty)]
@@ -238,15 +241,17 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
             g.links.new(gin.outputs[name], node.inputs[name])
         return node
 
-    if layout.epipolar:
-        difference = epipolar.shadow_difference(g, gin, direction, length, sun, layout, epipolar_images, params.mie_g)
-    else:
+    scale = g.mul(g.mul(gin.outputs["Sun Strength"], gin.outputs["Scattering Scale"]), gin.outputs["Enable"])
+    if layout.epipolar:         # the whole image: surface x transmittance + the air's light
+        light = epipolar.in_scattering(g, gin, direction, length, sun, geometry, layout, epipolar_images,
+                                       params.mie_g)
+        base = g.vmath("MULTIPLY", gin.outputs["Surface"], gin.outputs["Transmittance"])
+    else:                       # the aerial group's image + shadowed - unshadowed
         lit_length, first_lit, integrated = _march(g, gin, camera, direction, length, sun, layout, shadow_test,
                                                    integration)
-        difference = _brute_force_difference(g, camera, end, direction, sun, layout, lit_length, first_lit,
-                                              integrated)
-    scale = g.mul(g.mul(gin.outputs["Sun Strength"], gin.outputs["Scattering Scale"]), gin.outputs["Enable"])
-    result = g.vmath("MULTIPLY_ADD", difference, g.combine(scale, scale, scale), gin.outputs["Image"])
+        light = _brute_force_difference(g, camera, end, direction, sun, layout, lit_length, first_lit, integrated)
+        base = gin.outputs["Image"]
+    result = g.vmath("MULTIPLY_ADD", light, g.combine(scale, scale, scale), base)
 
     if layout.show_cascades:    # tint surfaces with the colour of the cascade they fall in
         end_cascade = shadow_test(end).outputs["Cascade"]
@@ -258,7 +263,7 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     if layout.epipolar:
         result = epipolar.show_sampling(g, gin, result, g.combine(nx, ny, 1.0), epipolar_images[2])
 
-    g.links.new(g.with_alpha_of(gin.outputs["Image"], result), gout.inputs["Image"])
+    g.links.new(g.with_alpha_of(source, result), gout.inputs["Image"])
     return tree
 
 

@@ -161,6 +161,9 @@ def link_light_shafts(scene):
     tree.links.new(shafts.outputs["Image"], tone.inputs["Image"])
     tree.links.new(layers.outputs["Position"], shafts.inputs["Position"])
     tree.links.new(layers.outputs["Depth"], shafts.inputs["Depth"])
+    if "Surface" in shafts.inputs:      # the epipolar layout makes the whole image from these
+        tree.links.new(layers.outputs["Image"], shafts.inputs["Surface"])
+        tree.links.new(aerial.outputs["Transmittance"], shafts.inputs["Transmittance"])
     _ensure_layers_output(tree, layers, aerial, shafts, tone)
     frame = tree.nodes.get(FRAME_NODE)
     if frame is None:

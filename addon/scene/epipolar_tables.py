@@ -89,7 +89,7 @@ def update(scene, camera, sun_direction, cascades, luts_object) -> dict:
     if integral is not None:
         luts.write_data_image(INTEGRAL_IMAGE, integral)
     air = epipolar_air.air_frame(frame, camera)
-    air_tables = epipolar_air.build(luts_object, air, camera.position, settings.multiple_scattering_mode)
+    air_tables = epipolar_air.build(luts_object, air, camera.position)
     for name, pixels in nodes.epipolar.pack_air(air_tables).items():
         luts.write_data_image(name, pixels)
     overlay = np.zeros((1, 1, 4), dtype=np.float32)

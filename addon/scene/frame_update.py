@@ -63,7 +63,7 @@ def _frame_key(scene, depsgraph):
             scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage,
             epipolar_tables.technique(settings), epipolar.settings_from(settings), settings.single_scattering_mode,
             settings.smooth_shadows, settings.best_cascade_search, settings.first_cascade_to_ray_march,
-            settings.show_sampling, settings.multiple_scattering_mode, scene.get(WIRED_KEY))
+            settings.show_sampling, scene.get(WIRED_KEY))
 
 
 def _numpy_luts(scene):

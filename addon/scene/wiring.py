@@ -268,7 +268,8 @@ class BakeInfo:
     def numpy_luts(self):
         """The bake as lut_gen.Luts (read on first use: the epipolar tables need it)."""
         if self._luts is None:
-            self._luts = lut_gen.load(Path(bpy.path.abspath(self.multiple.filepath)).parent, params=self.params)
+            self._luts = lut_gen.load(Path(bpy.path.abspath(self.multiple.filepath)).parent,
+                                      params=self.params).keep_packed()
         return self._luts
 
 
