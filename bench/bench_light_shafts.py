@@ -170,6 +170,11 @@ def main():
     image_settings.media_type = "MULTI_LAYER_IMAGE"
     image_settings.color_depth = "32"
     bpy.data.images["Render Result"].save_render(str(exr), scene=scene)
+    # Back to PNG: with OpenEXR MultiLayer output every timed render would also write the
+    # atmosphere layers file (and evaluate the per-pixel in-scattering it holds).
+    image_settings.media_type = "IMAGE"
+    image_settings.file_format = "PNG"
+    image_settings.color_depth = "8"
     saved = tree.nodes.new("CompositorNodeImage")
     saved.name = "Bench Saved Render"
     saved.image = bpy.data.images.load(str(exr))
