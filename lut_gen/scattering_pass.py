@@ -93,7 +93,9 @@ def scattering_pass(luts: Luts, image, position, depth, camera: Camera, sun_dire
     else:
         unshadowed = aerial.segment_inscattering(luts, camera.position, end, sun)
         difference = light_shafts(luts, camera, end, sun, cascades, settings, unshadowed) if shafts else 0.0
-    out = np.where(geometry[..., None], surface + unshadowed * scale, image) + difference * scale
+    # No negative light: the shafts cannot take out more than a pixel holds (a rendered sky darker
+    # than the computed air in front of it, a render cropped to 1 x 1).
+    out = np.maximum(np.where(geometry[..., None], surface + unshadowed * scale, image) + difference * scale, 0.0)
     if settings.show_cascades and cascades is not None:
         out = np.where(geometry[..., None], out * cascade_tint(cascades, end, camera, settings), out)
     if overlay is not None:
@@ -187,8 +189,10 @@ def load_render_passes(path) -> dict:
 
 # -- pass inputs on disk: what the twin needs besides the render passes ---------------------------
 
-def save_inputs(path, camera: Camera, sun_direction, cascades: ShadowCascades, settings: PassSettings) -> Path:
-    """Camera, sun, shadow cascades and settings of a frame as one .npz (atomic write)."""
+def save_inputs(path, camera: Camera, sun_direction, cascades: ShadowCascades, settings: PassSettings,
+                resolution=None) -> Path:
+    """Camera, sun, shadow cascades and settings of a frame as one .npz (atomic write), and the
+    render's (width, height) when given (``pass`` then refuses passes of another size)."""
     import dataclasses
     import json
     arrays = dict(camera_position=camera.position, camera_rotation=camera.rotation,
@@ -196,9 +200,34 @@ def save_inputs(path, camera: Camera, sun_direction, cascades: ShadowCascades, s
                   sun_direction=np.asarray(sun_direction, dtype=np.float64), frame=cascades.frame,
                   centers=cascades.centers, halves=cascades.halves, far_depths=cascades.far_depths,
                   depths=cascades.depths, settings=np.asarray(json.dumps(dataclasses.asdict(settings))))
+    if resolution is not None:
+        arrays["resolution"] = np.asarray(resolution, dtype=np.int64)
     with atomic_path(path) as tmp, open(tmp, "wb") as f:
         np.savez_compressed(f, **arrays)
     return Path(path)
+
+
+def saved_resolution(path):
+    """The render's (width, height) saved with the inputs, or None (inputs saved without it)."""
+    try:
+        with np.load(Path(path)) as data:
+            if "resolution" not in data.files:
+                return None
+            width, height = (int(v) for v in data["resolution"])
+    except (OSError, ValueError, TypeError) as exc:
+        raise ValueError(f"{path}: not a pass-inputs file saved by the add-on ({exc})") from None
+    return width, height
+
+
+def check_passes_match(passes: dict, resolution, passes_path, inputs_path):
+    """ValueError unless the render passes are finite and of the size the inputs were saved for."""
+    height, width = passes["image"].shape[:2]
+    if resolution is not None and (width, height) != tuple(resolution):
+        raise ValueError(f"{passes_path} is {width}x{height} but {inputs_path} was exported for a "
+                         f"{resolution[0]}x{resolution[1]} render; export the inputs of the same frame again")
+    for key, (name, _) in PASS_CHANNELS.items():
+        if not np.all(np.isfinite(passes[key])):
+            raise ValueError(f"{passes_path}: its {name} pass holds NaN or infinite values; render the passes again")
 
 
 def load_inputs(path):

@@ -251,7 +251,9 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
                                                    integration)
         light = _brute_force_difference(g, camera, end, direction, sun, layout, lit_length, first_lit, integrated)
         base = gin.outputs["Image"]
-    result = g.vmath("MULTIPLY_ADD", light, g.combine(scale, scale, scale), base)
+    # No negative light (twin: lut_gen.scattering_pass): the shafts cannot take out more than a
+    # pixel holds.
+    result = g.vmath("MAXIMUM", g.vmath("MULTIPLY_ADD", light, g.combine(scale, scale, scale), base), (0.0, 0.0, 0.0))
 
     if layout.show_cascades:    # tint surfaces with the colour of the cascade they fall in
         end_cascade = shadow_test(end).outputs["Cascade"]

@@ -15,6 +15,12 @@ SAMPLING_IMAGE = nodes.epipolar.SAMPLING_IMAGE
 ALL_IMAGES = (LIT_IMAGE, INTEGRAL_IMAGE, SAMPLING_IMAGE, *nodes.epipolar.AIR_IMAGES.values())
 
 
+def render_size(scene):
+    """(width, height) in pixels of the scene's render."""
+    percent = scene.render.resolution_percentage / 100.0
+    return max(int(scene.render.resolution_x * percent), 1), max(int(scene.render.resolution_y * percent), 1)
+
+
 def table_texels(settings) -> int:
     return (settings.epipolar_slices + 1) * settings.samples_per_slice * settings.num_integration_steps
 
@@ -75,9 +81,7 @@ def update(scene, camera, sun_direction, cascades, luts_object) -> dict:
     """Build the frame's tables, write them into the images; the "OLS Frame Values" rows.
     ``luts_object``: the bake as lut_gen.Luts."""
     settings = props.Sanitized(scene.ols)
-    percent = scene.render.resolution_percentage / 100.0
-    width = max(int(scene.render.resolution_x * percent), 1)
-    height = max(int(scene.render.resolution_y * percent), 1)
+    width, height = render_size(scene)
     wanted = epipolar.settings_from(settings)
     frame = epipolar.frame_for(camera, sun_direction, width, height, float(cascades.far_depths[-1]), wanted)
     integrate = settings.single_scattering_mode == "INTEGRATION"

@@ -128,4 +128,5 @@ def export_pass_inputs(scene, path, depsgraph=None):
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     sun, strength = shadow_maps.sun_state(scene, depsgraph)
     return scattering_pass.save_inputs(path, shadow_maps.camera_model(scene, depsgraph), sun,
-                                       shadow_maps.render(scene, depsgraph), pass_settings(scene, strength))
+                                       shadow_maps.render(scene, depsgraph), pass_settings(scene, strength),
+                                       epipolar_tables.render_size(scene))
