@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from render_util import render_rgb
+from test_light_shafts_pass import Twin, render_passes
 from test_tone_mapping import sample_scene
 
 bpy = pytest.importorskip("bpy")
@@ -65,6 +66,13 @@ def test_exr_is_scene_linear_and_png_is_tone_mapped(addon_package, wired, tmp_pa
     scene.ols.tone_map_exr = True
     mapped = render_rgb(scene, tmp_path / "mapped.exr", composite=True)
     assert np.abs(twin.srgb_encode(mapped) - png).max() <= 2e-3
+    # The linear EXR is the numpy twins' composite of the same render passes (issue 10's bar:
+    # median relative error <= 1e-3).
+    passes = render_passes(addon_package, scene, tmp_path)
+    expected = Twin(addon_package, scene, passes)()
+    error = np.abs(linear[::-1] - expected).sum(-1) / np.maximum(expected.sum(-1), 1e-4)   # rows bottom to top
+    print("EXR vs twin composite: median", np.median(error), "max", error.max())
+    assert np.median(error) <= 1e-3
 
 
 def test_blender_view_transform_operator(addon_package, wired, tmp_path):
