@@ -123,9 +123,13 @@ def read_layers(path):
     return layers
 
 
-def test_multilayer_exr_carries_the_atmosphere_layers(addon_package, wired, tmp_path):
-    """beauty = surface x transmittance + inscattering + shafts, beside a multilayer EXR render."""
+@pytest.mark.parametrize("technique", ["EPIPOLAR_SAMPLING", "BRUTE_FORCE"])
+def test_multilayer_exr_carries_the_atmosphere_layers(addon_package, wired, tmp_path, technique):
+    """beauty = surface x transmittance + inscattering + shafts, beside a multilayer EXR render,
+    for either light-shaft technique."""
     scene = wired
+    scene.ols.scattering_technique = technique
+    assert scene.compositing_node_group.nodes["OLS Light Shafts"].node_tree["ols_layout"].find(technique) >= 0
     scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"     # Blender 5.0: before the format
     scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER"
     scene.render.image_settings.color_depth = "32"
