@@ -31,8 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import aerial, geometry
-from . import parameterization as par
+from . import aerial
 from .atmosphere import mie_phase, rayleigh_phase
 from .epipolar import MIN_NEAR, EpipolarFrame, corner_cosine, trilinear
 from .sampling import Luts
@@ -67,16 +66,6 @@ def air_frame(frame: EpipolarFrame, camera: Camera) -> EpipolarFrame:
     slices, samples, distances = air_dims(frame.slices, frame.samples)
     return dataclasses.replace(frame, slices=slices, samples=samples, steps=distances, t_max=reach,
                                growth=reach / MIN_NEAR)
-
-
-def _ground_distance(luts: Luts, camera, directions) -> np.ndarray:
-    """Distance from the camera to the ground along ``directions`` (inf where they miss it)."""
-    radius = luts.params.earth_radius
-    centre = camera + np.array([0.0, 0.0, radius])
-    r = np.linalg.norm(centre, axis=-1)
-    cos_zenith = np.sum(centre / r[..., None] * directions, axis=-1)
-    hits = cos_zenith < par.cos_horizon(r - radius, radius)
-    return np.where(hits, geometry.distance_to_ground(r, cos_zenith, radius), np.inf)
 
 
 def _above_ground(luts: Luts, camera, directions, t) -> np.ndarray:
