@@ -187,13 +187,12 @@ def cmd_sample(args) -> int:
 
 def cmd_pass(args) -> int:
     from .exr_io import write_rgb
-    from .scattering_pass import (check_passes_match, load_inputs, load_render_passes, saved_resolution,
-                                  scattering_pass)
+    from .scattering_pass import check_passes_match, load_inputs, load_render_passes, scattering_pass
 
     check_writable(args.out)            # before the work, naming the file asked for
     passes = load_render_passes(args.passes)
-    camera, sun, cascades, settings = load_inputs(args.inputs)
-    check_passes_match(passes, saved_resolution(args.inputs), args.passes, args.inputs)
+    camera, sun, cascades, settings, resolution = load_inputs(args.inputs)
+    check_passes_match(passes, resolution, args.passes, args.inputs)
     overrides = {"num_integration_steps": args.steps, "single_scattering_mode": args.single,
                  "multiple_scattering_mode": args.multiple, "enable_light_shafts": False if args.no_shafts else None,
                  "scattering_technique": TECHNIQUES.get(args.technique)}

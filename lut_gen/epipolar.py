@@ -315,9 +315,8 @@ def _fill_between_marched(table, marched):
     samples = np.broadcast_to(np.arange(n_samples), marched.shape)
     before = np.maximum.accumulate(np.where(marched, samples, 0), axis=1)
     after = np.minimum.accumulate(np.where(marched, samples, n_samples - 1)[:, ::-1], axis=1)[:, ::-1]
-    span = np.maximum(after - before, 1)
-    weight = ((samples - before) / span).reshape(marched.shape + (1,) * (table.ndim - 2))
     extra = (1,) * (table.ndim - 2)
+    weight = ((samples - before) / np.maximum(after - before, 1)).reshape(marched.shape + extra)
     low = np.take_along_axis(table, before.reshape(marched.shape + extra), axis=1)
     high = np.take_along_axis(table, after.reshape(marched.shape + extra), axis=1)
     table[...] = np.where(marched.reshape(marched.shape + extra), table, low + (high - low) * weight)

@@ -33,7 +33,7 @@ import numpy as np
 
 from . import aerial
 from .atmosphere import mie_phase, rayleigh_phase
-from .epipolar import MIN_NEAR, EpipolarFrame, corner_cosine, trilinear
+from .epipolar import MIN_NEAR, EpipolarFrame, corner_cosine, look_up, trilinear
 from .sampling import Luts
 from .shadow_map import Camera
 
@@ -149,7 +149,6 @@ def light_shaft_difference(luts: Luts, camera: Camera, end, frame: EpipolarFrame
     minus unshadowed): the aerial perspective's in-scattering and the light shafts, both from
     the tables: the lit-length tables (lut_gen.epipolar.build_tables on ``frame``) read at each
     pixel's own depth, the in-scattering tables (``build`` on ``air``)."""
-    from .epipolar import look_up
     ray = np.asarray(end, dtype=np.float64) - camera.position
     length = np.linalg.norm(ray, axis=-1)
     direction = ray / np.maximum(length, 1e-9)[..., None]

@@ -161,10 +161,10 @@ class Luts:
                                packed=self._packed_table(table))
         if not phase_free:
             radiance = radiance * rayleigh_phase(cos_sun_view)[..., None].astype(np.float32)
-        if table in TABLES_WITH_MIE and not phase_free:
-            phase = mie_phase(cos_sun_view, self.params.mie_g)[..., None].astype(np.float32)
-            radiance += interpolate(self.single_mie, coords, geometric_axes=GEOMETRIC_AXES,
-                                    packed=self._packed_table("single_mie")) * phase
+            if table in TABLES_WITH_MIE:
+                phase = mie_phase(cos_sun_view, self.params.mie_g)[..., None].astype(np.float32)
+                radiance += interpolate(self.single_mie, coords, geometric_axes=GEOMETRIC_AXES,
+                                        packed=self._packed_table("single_mie")) * phase
         scale = par.look_up_scale(self.params, height_m, cos_view_zenith, above)
         return radiance * scale[..., None].astype(np.float32)
 

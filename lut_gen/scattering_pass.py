@@ -207,18 +207,6 @@ def save_inputs(path, camera: Camera, sun_direction, cascades: ShadowCascades, s
     return Path(path)
 
 
-def saved_resolution(path):
-    """The render's (width, height) saved with the inputs, or None (inputs saved without it)."""
-    try:
-        with np.load(Path(path)) as data:
-            if "resolution" not in data.files:
-                return None
-            width, height = (int(v) for v in data["resolution"])
-    except (OSError, ValueError, TypeError) as exc:
-        raise ValueError(f"{path}: not a pass-inputs file saved by the add-on ({exc})") from None
-    return width, height
-
-
 def check_passes_match(passes: dict, resolution, passes_path, inputs_path):
     """ValueError unless the render passes are finite and of the size the inputs were saved for."""
     height, width = passes["image"].shape[:2]
@@ -231,8 +219,8 @@ def check_passes_match(passes: dict, resolution, passes_path, inputs_path):
 
 
 def load_inputs(path):
-    """(camera, sun direction, cascades, settings) saved by ``save_inputs``; ValueError for a
-    file that is not one."""
+    """(camera, sun direction, cascades, settings, the render's (width, height) or None for
+    inputs saved without it) saved by ``save_inputs``; ValueError for a file that is not one."""
     import json
     try:
         with np.load(Path(path)) as data:
@@ -241,6 +229,7 @@ def load_inputs(path):
             cascades = ShadowCascades(data["frame"], data["centers"], data["halves"], data["far_depths"], data["depths"])
             settings = PassSettings(**json.loads(str(data["settings"])))
             sun = data["sun_direction"]
+            resolution = tuple(int(v) for v in data["resolution"]) if "resolution" in data.files else None
     except (OSError, KeyError, ValueError, TypeError, RecursionError) as exc:
         raise ValueError(f"{path}: not a pass-inputs file saved by the add-on ({exc})") from None
     for name, value in (("camera position", camera.position), ("camera rotation", camera.rotation),
@@ -248,4 +237,4 @@ def load_inputs(path):
                         ("sun direction", sun), ("shadow cascades", cascades.depths)):
         if not np.all(np.isfinite(np.asarray(value, dtype=np.float64))):
             raise ValueError(f"{path}: the {name} holds NaN or infinite values; export the inputs again")
-    return camera, sun, cascades, settings
+    return camera, sun, cascades, settings, resolution

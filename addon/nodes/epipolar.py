@@ -17,8 +17,7 @@ import math
 import numpy as np
 
 from ...lut_gen import epipolar, epipolar_air
-from ...lut_gen.atmosphere import RAYLEIGH_PHASE_NORM
-from .lookup import mie_phase
+from .lookup import mie_phase, rayleigh_phase
 
 LIT_IMAGE = "OLS Epipolar Lit"
 INTEGRAL_IMAGE = "OLS Epipolar Integral"
@@ -67,9 +66,9 @@ def pack(tables: epipolar.EpipolarTables):
 
 
 def pack_air(tables: epipolar_air.AirTables) -> dict:
-    """{image name: RGBA pixels} of the in-scattering tables (the higher orders only when built)."""
+    """{image name: RGBA pixels} of the in-scattering tables."""
     arrays = {"single": tables.rayleigh, "single_mie": tables.mie, "higher": tables.higher}
-    return {AIR_IMAGES[name]: _rows(table) for name, table in arrays.items() if table is not None}
+    return {AIR_IMAGES[name]: _rows(table) for name, table in arrays.items()}
 
 
 def image_size(slices: int, samples: int, steps: int):
@@ -80,11 +79,6 @@ def image_size(slices: int, samples: int, steps: int):
 def air_image_size(slices: int, samples: int):
     """(width, height) of the in-scattering images for lit-length tables of slices x samples."""
     return image_size(*epipolar_air.air_dims(slices, samples))
-
-
-def air_images_wanted(layout) -> list:
-    """Names of the in-scattering images."""
-    return list(AIR_IMAGES.values())
 
 
 def _grid_coordinates(g, gin, direction, sun):
@@ -183,7 +177,7 @@ def in_scattering(g, gin, direction, length, sun, geometry, layout, images, mie_
     single = weights(uses["single"])
     cos_theta = g.vmath("DOT_PRODUCT", direction, sun)
     rayleigh = g.vmath("ADD", combination("single", single), combination("higher", weights(uses["higher"])))
-    light = g.vmath("ADD", g.vscale(rayleigh, g.mul(g.mul_add(cos_theta, cos_theta, 1.0), RAYLEIGH_PHASE_NORM)),
+    light = g.vmath("ADD", g.vscale(rayleigh, rayleigh_phase(g, cos_theta)),
                     g.vscale(combination("single_mie", single), mie_phase(g, cos_theta, mie_g)))
     if layout.single_mode == "INTEGRATION":
         light = g.vmath("ADD", light, grid.fetch(integral_image, z))

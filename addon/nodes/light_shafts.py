@@ -15,16 +15,15 @@ else (camera, sun, cascade rectangles, first cascade, show cascades) arrives as 
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 from ...lut_gen import shadow_map
 from ...lut_gen.scattering_pass import MIN_FORWARD_COSINE
-from ...lut_gen.atmosphere import RAYLEIGH_PHASE_NORM
 from . import epipolar
 from .aerial import PASS_INPUTS
 from .builder import group_io, new_group
 from .inscattering import section_node
+from .lookup import mie_phase, rayleigh_phase
 from .optical import (ozone_density, point_frame, segment_transmittance_node, transmittance_from_net_density,
                       transmittance_to_top)
 
@@ -174,14 +173,8 @@ def build_integration_group(optical_image, params):
     view_transmittance = transmittance_from_net_density(
         g, *g.separate(g.vmath("MULTIPLY_ADD", step_density, (0.5, 0.5, 0.5), before)), params)
     cos_theta = g.vmath("DOT_PRODUCT", direction, sun)
-    one_plus_c2 = g.mul_add(cos_theta, cos_theta, 1.0)
-    rayleigh_phase = g.mul(one_plus_c2, RAYLEIGH_PHASE_NORM)
-    mie_g = params.mie_g
-    mie_norm = 3.0 / (8.0 * math.pi) * (1.0 - mie_g ** 2) / (2.0 + mie_g ** 2)
-    mie_phase = g.div(g.mul(one_plus_c2, mie_norm),
-                      g.math("POWER", g.mul_add(cos_theta, -2.0 * mie_g, 1.0 + mie_g ** 2), 1.5))
-    scattering = g.vmath("ADD", g.vscale(tuple(params.rayleigh), g.mul(rho_r, rayleigh_phase)),
-                         g.vscale(tuple(params.mie), g.mul(rho_m, mie_phase)))
+    scattering = g.vmath("ADD", g.vscale(tuple(params.rayleigh), g.mul(rho_r, rayleigh_phase(g, cos_theta))),
+                         g.vscale(tuple(params.mie), g.mul(rho_m, mie_phase(g, cos_theta, params.mie_g))))
     weight = g.mul(gin.outputs["Lit"], step)
     radiance = g.vscale(g.vmath("MULTIPLY", g.vmath("MULTIPLY", scattering, view_transmittance), sun_transmittance), weight)
     g.links.new(radiance, gout.inputs["Radiance"])

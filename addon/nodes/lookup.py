@@ -62,6 +62,11 @@ def sun_view_coordinate(g, cos_sun_view, n_t):
     return g.mul(g.mul_add(shaped, 0.5, 0.5), n_t - 1)
 
 
+def rayleigh_phase(g, cos_theta):
+    """Rayleigh phase function (lut_gen.atmosphere.rayleigh_phase)."""
+    return g.mul(g.mul_add(cos_theta, cos_theta, 1.0), RAYLEIGH_PHASE_NORM)
+
+
 def mie_phase(g, cos_theta, mie_g):
     """Cornette-Shanks phase function (lut_gen.atmosphere.mie_phase)."""
     g2 = mie_g * mie_g
@@ -186,7 +191,7 @@ def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=Fal
         return g.vgeometric_lerp(at_height[0], at_height[1], h_nodes[1][1])
 
     c_t = gin.outputs["Cos Sun View"]
-    radiance = g.vscale(interpolated(image), g.mul(g.mul_add(c_t, c_t, 1.0), RAYLEIGH_PHASE_NORM))
+    radiance = g.vscale(interpolated(image), rayleigh_phase(g, c_t))
     if mie_image is not None:
         radiance = g.vmath("ADD", radiance, g.vscale(interpolated(mie_image), mie_phase(g, c_t, params.mie_g)))
     scale = ground_ray_scale(g, h, gin.outputs["Cos View Zenith"], above, params.earth_radius)

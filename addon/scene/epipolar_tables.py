@@ -47,7 +47,7 @@ def _sized_images(layout) -> dict:
     sizes = {LIT_IMAGE: nodes.epipolar.image_size(layout.slices, layout.samples, layout.steps)}
     if layout.single_mode == "INTEGRATION":
         sizes[INTEGRAL_IMAGE] = sizes[LIT_IMAGE]
-    for name in nodes.epipolar.air_images_wanted(layout):
+    for name in nodes.epipolar.AIR_IMAGES.values():
         sizes[name] = nodes.epipolar.air_image_size(layout.slices, layout.samples)
     return sizes
 
@@ -65,7 +65,7 @@ def ensure_images(layout):
         images[name] = image
     sampling = bpy.data.images.get(SAMPLING_IMAGE)      # any size: written at the render's each frame
     sampling = sampling or luts.write_data_image(SAMPLING_IMAGE, np.zeros((1, 1, 4), dtype=np.float32))
-    air = {name: images[name] for name in nodes.epipolar.air_images_wanted(layout)}
+    air = {name: images[name] for name in nodes.epipolar.AIR_IMAGES.values()}
     return images[LIT_IMAGE], images.get(INTEGRAL_IMAGE), sampling, air
 
 
