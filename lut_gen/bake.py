@@ -43,7 +43,7 @@ from .spectrum import Media, bake_media, spectral_resample_matrix
 from .ground import GroundSource
 from .geometry import clustered_nodes, distance_to_sphere_exit, radius_along, ray_length
 from .interpolation import axis_weights, gather, geometric_lerp, packed_rows, resample_matrix, resample_sun_geometric
-from .sampling import EARTH_HIT_NET_DENSITY, Luts
+from .sampling import EARTH_HIT_NET_DENSITY, Luts, below_first_row_factors
 
 Progress = Callable[[str, float], None]
 
@@ -165,8 +165,11 @@ def bake_optical_depth(params: AtmosphereParams, n_height: int, n_cos: int,
         s = clustered_nodes(r, cosines[None, :], length, steps).astype(np.float32)
         node_heights = _height_along(params, h, r, cosines[None, :], s)
         weights = _trapezoid_weights(s)
-        for medium, density in enumerate(_density_profiles(params, node_heights)):
-            out[sl, :, medium] = np.einsum("...k,...k->...", density, weights) if density is not None else 0.0
+        rayleigh, mie, ozone = _density_profiles(params, node_heights)
+        heights_clamped = np.maximum(node_heights, np.float32(0.0))
+        out[sl, :, 0] = _exponential_segments_integral(rayleigh, heights_clamped, params.rayleigh_scale_height, s)
+        out[sl, :, 1] = _exponential_segments_integral(mie, heights_clamped, params.mie_scale_height, s)
+        out[sl, :, 2] = np.einsum("...k,...k->...", ozone, weights) if ozone is not None else 0.0
         out[sl][cosines[None, :] < par.cos_horizon(h, params.earth_radius)] = EARTH_HIT_NET_DENSITY
 
     _parallel_rows(fill, len(starts), progress or (lambda *a: None), "optical depth")
@@ -195,6 +198,20 @@ def _density_profiles(params, heights):
     mie = np.exp(heights * np.float32(-1.0 / params.mie_scale_height))
     ozone = ozone_density(params, heights).astype(np.float32) if params.ozone else None
     return rayleigh, mie, ozone
+
+
+def _exponential_segments_integral(density, heights, scale_height: float, s):
+    """Integral along the last axis of density = exp(-height / scale_height), taken as
+    exponential in s between its samples (exact on a straight vertical ray). The trapezoid
+    rule on the same 48 nodes overestimated the Mie column by 1% (Rayleigh 0.15%), which a low
+    sun's transmittance turns into several percent."""
+    a, b = density[..., :-1], density[..., 1:]
+    # log(b / a) without a log: the densities are exponentials of the heights.
+    log_ratio = (heights[..., :-1] - heights[..., 1:]) * np.float32(1.0 / scale_height)
+    small = np.abs(log_ratio) < np.float32(1e-3)
+    # (b - a) / log(b / a), with its series where the segment barely changes height.
+    mean = np.where(small, 0.5 * (a + b), (b - a) / np.where(small, np.float32(1.0), log_ratio))
+    return np.einsum("...k,...k->...", mean, np.diff(s, axis=-1).astype(np.float32))
 
 
 def _trapezoid_weights(s):
@@ -302,6 +319,11 @@ def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.
         basis[..., 3] = wc * wh[:, :, None, None]
         # Net densities medium-major, then one matmul gives every channel's optical depth.
         sun_net = np.einsum("akstjc,akstj->castk", cell[..., :3], basis)                 # (3, a, s, t, K)
+        # The table's first row sits 39 m up and the look-up clamps there: nodes lower down
+        # (every ground ray ends at 0 m) need the columns' growth below it, or a low sun's
+        # path through the aerosol is ~3% short and ground rays at sunset read 5-13% too bright.
+        below = below_first_row_factors(params, node_h, n_odh).astype(np.float32)         # (a, K, 3)
+        sun_net *= below.transpose(2, 0, 1)[:, :, None, None, :]
         n_rays = len(nodes.s)
         depth = (-extinction.T) @ sun_net.reshape(3, -1)                                   # (C, a*s*t*K)
         np.maximum(depth, np.float32(-80.0), out=depth)

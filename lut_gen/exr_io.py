@@ -38,7 +38,7 @@ from .sampling import Luts
 # 2: single Mie scattering apart, ground-ray scale, spectral params.
 LAYOUT_VERSION = 2
 # Bump when the baker's numerics change (the same params then give different tables).
-BAKER_VERSION = 4
+BAKER_VERSION = 5   # 5: exponential optical-depth segments, columns below the first row
 
 FILES = {
     "single": "single_scattering.exr",

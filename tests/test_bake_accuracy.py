@@ -73,24 +73,25 @@ def test_single_table_median_error_within_one_percent(single_vs_reference):
     _, groups, err = single_vs_reference
     assert np.median(err) <= 0.01
     # The issue's bar is on the whole set; each group of it is held near it too. Measured
-    # (seeds 5, 11, 17, 23, 29): short ground rays 0.16-0.24%, the midday zenith 0.20-0.27%,
-    # 5 deg around the sun 0.41-0.66% (linear blending along height and sun zenith gave 0.26%,
-    # 0.81% and 1.2%).
+    # (seeds 5-41): short ground rays 0.29-0.38%, the midday zenith 0.20-0.32%, 5 deg around
+    # the sun 0.40-0.60% (linear blending along height and sun zenith gave 0.26%, 0.81% and 1.2%).
     limits = {"downward near the ground": 0.005, "zenith at high sun": 0.005, "5 deg around the sun": 0.01}
     for name, rays in groups.items():
         assert np.median(err[rays]) <= limits[name], name
 
 
 def test_single_table_tail(single_vs_reference):
-    """Issue 8 asks p99 <= 5%. Measured over 5000 rays (seeds 5, 11, 17, 23, 29): p95 1.5%,
-    p99 4.3% (seed 11 alone: 2.5%). Nearly all the rays over 5% are at twilight (sun zenith
-    > 88 deg), where single scattering falls by orders of magnitude between neighbouring nodes;
-    blending linearly along height and sun zenith gave p99 6.6%, 11.5% on some seeds."""
+    """Issue 8 asks p99 <= 5%. Measured over 8000 rays (seeds 5-41): p95 1.4%, p99 2.9%, per
+    seed 2.1-3.7% (seed 11 alone: 2.3%). The rays over 5% (0.6%) are at twilight, sun zenith
+    > 88 deg, where single scattering falls by orders of magnitude between neighbouring nodes.
+    The tail was 4.3% (per seed up to 5.4%) while the optical-depth table overestimated the Mie
+    column by 1% and the bake read it 39 m up for nodes below its first row: ground rays at
+    sunset came out 5-13% too bright."""
     rays, _, err = single_vs_reference
-    assert np.percentile(err, 99) <= 0.05
+    assert np.percentile(err, 99) <= 0.04
     assert np.percentile(err, 95) <= 0.02
     twilight = np.degrees(np.arccos(rays[2])) > 88.0
-    assert np.percentile(err[~twilight], 99) <= 0.03
+    assert np.percentile(err[~twilight], 99) <= 0.025
     assert np.mean(err > 0.05) <= 0.01
 
 
@@ -295,3 +296,21 @@ def test_resolutions_and_tuple_dims():
     assert luts.dims == (8, 16, 8, 4)
     assert lut_gen.RESOLUTIONS["draft"].scattering == (16, 64, 32, 8)
     assert lut_gen.RESOLUTIONS["default"].scattering == (32, 128, 64, 16)
+
+
+def test_optical_depth_table_matches_reference(default_luts):
+    """Net densities to the top read from the baked table (with the look-up's growth below its
+    first row, 39 m up) against the 2048-step reference, from the ground to 30 km, from the
+    zenith to the horizon. Measured: within 0.2% except the zenith itself (0.1%, the last
+    texel centre is 0.001 short of it) and ozone near the horizon (0.6%). The trapezoid
+    rule on 48 nodes had Mie 1% high, which a low sun's transmittance multiplies ~20-fold."""
+    from lut_gen.sampling import table_net_density
+    rng = np.random.default_rng(8)
+    h = 30_000.0 * rng.uniform(0, 1, 300) ** 2
+    cos_zenith = rng.uniform(0.01, 1.0, 300)
+    got = table_net_density(P, default_luts.optical_depth, h, cos_zenith)
+    want = reference.net_density_to_top(P, h, cos_zenith, steps=2048)
+    rel = np.abs(got / want - 1.0)
+    assert np.max(rel[:, :2]) <= 0.004      # Rayleigh, Mie
+    assert np.median(rel[:, :2]) <= 0.002
+    assert np.max(rel[:, 2]) <= 0.01        # ozone
