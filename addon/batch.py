@@ -87,6 +87,9 @@ def parse_args(argv):
                              "the frame, and without '#' '_####' is added before the extension")
     parser.add_argument("--frames", default=None, help="START-END: render an animation's frames")
     parser.add_argument("--tables", choices=["default", "draft"], default="default")
+    parser.add_argument("--compositor-device", choices=["CPU", "GPU"], default=None,
+                        help="where Blender's compositor runs our passes (default: the scene's setting); "
+                             "GPU needs an OpenGL context (EGL in background mode)")
     args = parser.parse_args(argv)
     if args.output is None and not args.pack:
         parser.error("the following arguments are required: --output")
@@ -151,6 +154,8 @@ def apply_options(scene, args):
             scene.cycles.samples = args.samples
         else:
             scene.eevee.taa_render_samples = args.samples
+    if getattr(args, "compositor_device", None):
+        scene.render.compositor_device = args.compositor_device
     sun = sun_lamps.find_sun(scene)
     if args.preset:
         look = PRESETS[args.preset]

@@ -315,16 +315,25 @@ def _update_frame(scene, depsgraph):
     the light-shaft pass is off for this render and the reason printed (the render completes)."""
     if not scene.get(wiring.WIRED_KEY):
         return
+    try:
+        # First: the settings may have changed the layout since the last depsgraph update
+        # (scripts set controls without one), and sync_settings feeds the groups it builds.
+        wiring.match_light_shaft_layout(scene)
+        problem = None
+    except ValueError as exc:
+        problem = exc
     compositor.sync_settings(scene)     # e.g. the output format: OpenEXR saves scene-linear
     compositor.sync_layers_output(scene, rendering=True)
-    try:
-        wiring.match_light_shaft_layout(scene)
-        if frame_update.update_frame(scene, depsgraph):
-            for problem in checks.render_problems(scene, depsgraph):
-                print(f"Outdoor Light Scattering: {problem}")
-    except ValueError as exc:           # a ShadowMapError (a ValueError) says what to change
+    if problem is None:
+        try:
+            if frame_update.update_frame(scene, depsgraph):
+                for message in checks.render_problems(scene, depsgraph):
+                    print(f"Outdoor Light Scattering: {message}")
+        except ValueError as exc:       # a ShadowMapError (a ValueError) says what to change
+            problem = exc
+    if problem is not None:
         compositor.disable_light_shafts(scene)
-        print(f"Outdoor Light Scattering: light shafts are off for this render: {exc}")
+        print(f"Outdoor Light Scattering: light shafts are off for this render: {problem}")
 
 
 @persistent

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .shadow_map import PCF_OFFSETS, Camera, ShadowCascades, locate, tap_fraction
+from .shadow_map import Camera, ShadowCascades, locate, tap_fraction
 
 BLOCK = 8
 
@@ -29,22 +29,29 @@ class MinMaxMaps:
 
 def build(cascades: ShadowCascades, smooth: bool) -> MinMaxMaps:
     depths = np.asarray(cascades.depths, dtype=np.float32)      # exact: the maps are stored as float32
-    if smooth:
-        padded = np.pad(depths, ((0, 0), (1, 1), (1, 1)), mode="edge")
-        res = cascades.resolution
-        high, low = depths.copy(), depths.copy()
-        for dx, dy in PCF_OFFSETS[1:]:
-            shifted = padded[:, 1 + dy:1 + dy + res, 1 + dx:1 + dx + res]
-            np.maximum(high, shifted, out=high)
-            np.minimum(low, shifted, out=low)
-    else:
-        high = low = depths
-    n, res = len(depths), cascades.resolution
+    return MinMaxMaps(_block_reduce(depths, np.maximum, smooth), _block_reduce(depths, np.minimum, smooth), smooth)
+
+
+def _block_reduce(depths, combine, dilate: bool) -> np.ndarray:
+    """(cascades, blocks, blocks) ``combine`` (np.maximum or np.minimum) of the depths of each
+    BLOCK x BLOCK block, with ``dilate`` also of the texels bordering it: a square that holds
+    every PCF tap of the block's texels (the cross of taps would do; the square only leaves a
+    few more points to the exact test). Reduces in place of views: the whole-map copies and
+    pads this replaced cost 0.5 s a frame at 6 cascades of 4096."""
+    n, res = depths.shape[:2]
     blocks = -(-res // BLOCK)
-    pad = blocks * BLOCK - res
-    high = np.pad(high, ((0, 0), (0, pad), (0, pad)), mode="edge").reshape(n, blocks, BLOCK, blocks, BLOCK)
-    low = np.pad(low, ((0, 0), (0, pad), (0, pad)), mode="edge").reshape(n, blocks, BLOCK, blocks, BLOCK)
-    return MinMaxMaps(high.max(axis=(2, 4)), low.min(axis=(2, 4)), smooth)
+    size = blocks * BLOCK
+    if size != res:
+        depths = np.pad(depths, ((0, 0), (0, size - res), (0, size - res)), mode="edge")
+    rows = combine.reduce(depths.reshape(n, blocks, BLOCK, size), axis=2)              # (n, blocks, size)
+    if dilate and blocks > 1:
+        combine(rows[:, 1:], depths[:, BLOCK - 1:size - 1:BLOCK], out=rows[:, 1:])       # the row above
+        combine(rows[:, :-1], depths[:, BLOCK::BLOCK], out=rows[:, :-1])                 # the row below
+    out = combine.reduce(rows.reshape(n, blocks, blocks, BLOCK), axis=3)                # (n, blocks, blocks)
+    if dilate and blocks > 1:
+        combine(out[:, :, 1:], rows[:, :, BLOCK - 1:size - 1:BLOCK], out=out[:, :, 1:])  # the column left
+        combine(out[:, :, :-1], rows[:, :, BLOCK::BLOCK], out=out[:, :, :-1])           # the column right
+    return out
 
 
 def visibility(cascades: ShadowCascades, maps: MinMaxMaps, points, camera: Camera, best_search: bool = True,

@@ -115,7 +115,10 @@ def test_epipolar_matches_brute_force_behind_thin_occluders(draft_luts, name, bo
     camera = np.broadcast_to(scene.camera.position, scene.position.shape)
     air = aerial.segment_inscattering(draft_luts, camera, scene.position, scene.sun) * SUN_STRENGTH * SCALE
     darker = (unshadowed - brute)[scene.geometry].sum()
-    assert darker > 0.05 * air[scene.geometry].sum(), darker / air[scene.geometry].sum()     # shafts are there
+    # Shafts are there. Measured: pillars 9.9% / 39% of the air light at sun 4 / 12 deg, fence
+    # 4.7% / 24% (the fence's was 9.7% at 4 deg before the optical-depth table's Mie column
+    # lost its 1% trapezoid excess: the darkening is a small difference of two large sums).
+    assert darker > 0.03 * air[scene.geometry].sum(), darker / air[scene.geometry].sum()
     print(name, elevation, azimuth, "PSNR", quality)
     assert quality >= 40.0, quality
 

@@ -129,13 +129,14 @@ def test_multilayer_exr_carries_the_atmosphere_layers(addon_package, wired, tmp_
     for either light-shaft technique."""
     scene = wired
     scene.ols.scattering_technique = technique
-    assert scene.compositing_node_group.nodes["OLS Light Shafts"].node_tree["ols_layout"].find(technique) >= 0
     scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"     # Blender 5.0: before the format
     scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER"
     scene.render.image_settings.color_depth = "32"
     scene.render.use_compositing = True
     scene.render.filepath = str(tmp_path / "shot.exr")
     bpy.ops.render.render(write_still=True)
+    # render_pre rebuilt the groups for the technique
+    assert scene.compositing_node_group.nodes["OLS Light Shafts"].node_tree["ols_layout"].find(technique) >= 0
     written = sorted(tmp_path.glob("shot_atmosphere_*.exr"))
     assert len(written) == 1, sorted(p.name for p in tmp_path.iterdir())
     layers = read_layers(written[0])
