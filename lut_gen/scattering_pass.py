@@ -93,14 +93,27 @@ def scattering_pass(luts: Luts, image, position, depth, camera: Camera, sun_dire
     else:
         unshadowed = aerial.segment_inscattering(luts, camera.position, end, sun)
         difference = light_shafts(luts, camera, end, sun, cascades, settings, unshadowed) if shafts else 0.0
-    # No negative light: the shafts cannot take out more than a pixel holds (a rendered sky darker
-    # than the computed air in front of it, a render cropped to 1 x 1).
-    out = np.maximum(np.where(geometry[..., None], surface + unshadowed * scale, image) + difference * scale, 0.0)
+    # No negative light: the shafts cannot take out more than a pixel holds (a render cropped to
+    # 1 x 1). The light-shaft pass nodes: sky_shadow_share.
+    share = sky_shadow_share(image, unshadowed * scale, geometry)
+    out = np.maximum(np.where(geometry[..., None], surface + unshadowed * scale, image) + difference * scale * share,
+                     0.0)
     if settings.show_cascades and cascades is not None:
         out = np.where(geometry[..., None], out * cascade_tint(cascades, end, camera, settings), out)
     if overlay is not None:
         out = np.where(overlay[..., None] > 0.5, sampling_red(out), out)
     return out
+
+
+def sky_shadow_share(image, unshadowed, geometry):
+    """(..., 3) the share of the shafts' darkening a pixel takes: 1 on surfaces; on the sky the
+    rendered sky over the unshadowed air light in front of it, at most 1. A sky pixel holds at
+    least that air light, so it takes the whole darkening; an antialiased pixel on a silhouette
+    holds part sky, part a dark surface, yet its depth says sky, and the whole darkening left it
+    below zero, clamped per channel to teal (EEVEE, sun behind a peak). It now keeps its hue and
+    loses the shadowed fraction of the air light, as a darker sky seen through the same air would."""
+    share = np.minimum(1.0, np.asarray(image) / np.maximum(unshadowed, 1e-20))
+    return np.where(np.asarray(geometry)[..., None], 1.0, share)
 
 
 def sampling_red(radiance):

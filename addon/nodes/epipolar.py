@@ -131,7 +131,8 @@ def in_scattering(g, gin, direction, length, sun, geometry, layout, images, mie_
     aerial perspective's in-scattering where ``geometry`` is 1, plus the shadowed minus the
     unshadowed in-scattering (the light shafts), all from the tables: the lit length and first
     lit distance at the pixel's own depth, then the modes from the in-scattering images.
-    Twin: lut_gen.epipolar_air.light_shaft_difference (unshadowed x geometry + difference)."""
+    Twin: lut_gen.epipolar_air.light_shaft_difference (unshadowed x geometry + difference).
+    Returns that and the unshadowed in-scattering alone."""
     lit_image, integral_image, _, air_images = images
     across, along = _grid_coordinates(g, gin, direction, sun)
     t_max, growth, reach = g.separate(gin.outputs["Epipolar Depth"])
@@ -147,16 +148,18 @@ def in_scattering(g, gin, direction, length, sun, geometry, layout, images, mie_
     air_dims = epipolar_air.air_dims(layout.slices, layout.samples)
     air_grid = _Grid(g, air_dims, across, along)
     air_growth = g.div(reach, epipolar.MIN_NEAR)
-    nodes_at = {}
+    nodes_at, fetched = {}, {}
 
     def fetch(table, name):
         if name not in nodes_at:
             nodes_at[name] = _distance_node(g, distances[name], reach, air_growth, air_dims[2])
-        return air_grid.fetch(air_images[AIR_IMAGES[table]], nodes_at[name])
+        if (table, name) not in fetched:
+            fetched[table, name] = air_grid.fetch(air_images[AIR_IMAGES[table]], nodes_at[name])
+        return fetched[table, name]
 
-    def weights(uses):
-        """{distance: weight} of the difference's terms plus the unshadowed I(end) x geometry."""
-        merged = {"end": geometry}
+    def weights(uses, end=geometry):
+        """{distance: weight} of the difference's terms plus the unshadowed I(end) x ``end``."""
+        merged = {"end": end}
         for name, sign in uses:
             merged[name] = g.add(merged[name], sign) if name in merged else sign
         return merged
@@ -173,12 +176,16 @@ def in_scattering(g, gin, direction, length, sun, geometry, layout, images, mie_
                 total = g.vmath("ADD", total, g.vscale(value, weight))
         return total
 
-    uses = epipolar_air.table_uses(layout.single_mode, layout.multiple_mode)
-    single = weights(uses["single"])
     cos_theta = g.vmath("DOT_PRODUCT", direction, sun)
-    rayleigh = g.vmath("ADD", combination("single", single), combination("higher", weights(uses["higher"])))
-    light = g.vmath("ADD", g.vscale(rayleigh, rayleigh_phase(g, cos_theta)),
-                    g.vscale(combination("single_mie", single), mie_phase(g, cos_theta, mie_g)))
+    phases = rayleigh_phase(g, cos_theta), mie_phase(g, cos_theta, mie_g)
+
+    def phased(single, higher):
+        rayleigh = g.vmath("ADD", combination("single", single), combination("higher", higher))
+        return g.vmath("ADD", g.vscale(rayleigh, phases[0]), g.vscale(combination("single_mie", single), phases[1]))
+
+    uses = epipolar_air.table_uses(layout.single_mode, layout.multiple_mode)
+    light = phased(weights(uses["single"]), weights(uses["higher"]))
     if layout.single_mode == "INTEGRATION":
         light = g.vmath("ADD", light, grid.fetch(integral_image, z))
-    return light
+    # The same fetches of I(end): the unshadowed light, for the share sky pixels take.
+    return light, phased({"end": 1.0}, {"end": 1.0})

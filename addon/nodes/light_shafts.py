@@ -236,17 +236,23 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
 
     scale = g.mul(g.mul(gin.outputs["Sun Strength"], gin.outputs["Scattering Scale"]), gin.outputs["Enable"])
     if layout.epipolar:         # the whole image: surface x transmittance + the air's light
-        light = epipolar.in_scattering(g, gin, direction, length, sun, geometry, layout, epipolar_images,
-                                       params.mie_g)
+        light, unshadowed = epipolar.in_scattering(g, gin, direction, length, sun, geometry, layout,
+                                                   epipolar_images, params.mie_g)
         base = g.vmath("MULTIPLY", gin.outputs["Surface"], gin.outputs["Transmittance"])
     else:                       # the aerial group's image + shadowed - unshadowed
         lit_length, first_lit, integrated = _march(g, gin, camera, direction, length, sun, layout, shadow_test,
                                                    integration)
-        light = _brute_force_difference(g, camera, end, direction, sun, layout, lit_length, first_lit, integrated)
+        light, unshadowed = _brute_force_difference(g, camera, end, direction, sun, layout, lit_length, first_lit,
+                                                    integrated)
         base = gin.outputs["Image"]
-    # No negative light (twin: lut_gen.scattering_pass): the shafts cannot take out more than a
-    # pixel holds.
-    result = g.vmath("MAXIMUM", g.vmath("MULTIPLY_ADD", light, g.combine(scale, scale, scale), base), (0.0, 0.0, 0.0))
+    scale3 = g.combine(scale, scale, scale)
+    # Sky pixels take the share of the darkening their own light allows (twin and why:
+    # lut_gen.scattering_pass.sky_shadow_share); no negative light in any case.
+    share = g.vmath("MINIMUM", g.vmath("DIVIDE", base, g.vmath("MAXIMUM", g.vmath("MULTIPLY", unshadowed, scale3),
+                                                                  (1e-20,) * 3)), (1.0, 1.0, 1.0))
+    share = g.vlerp(share, (1.0, 1.0, 1.0), geometry)
+    light = g.vmath("MULTIPLY", light, share)
+    result = g.vmath("MAXIMUM", g.vmath("MULTIPLY_ADD", light, scale3, base), (0.0, 0.0, 0.0))
 
     if layout.show_cascades:    # tint surfaces with the colour of the cascade they fall in
         end_cascade = shadow_test(end).outputs["Cascade"]
@@ -263,8 +269,8 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
 
 
 def _brute_force_difference(g, camera, end, direction, sun, layout: ShaftLayout, lit_length, first_lit, integrated):
-    """Shadowed minus unshadowed in-scattering per unit sun: the modes applied with eq. (8)
-    per pixel (twin: lut_gen.aerial.apply_modes minus segment_inscattering)."""
+    """(shadowed minus unshadowed, unshadowed) in-scattering per unit sun: the modes applied
+    with eq. (8) per pixel (twin: lut_gen.aerial.apply_modes minus segment_inscattering)."""
     def transmittance_to(point):
         return segment_transmittance_node(g, camera, point, direction)
 
@@ -291,7 +297,7 @@ def _brute_force_difference(g, camera, end, direction, sun, layout: ShaftLayout,
     for term in terms:
         shadowed = g.vmath("ADD", shadowed, term)
     unshadowed = section_node(g, "multiple", camera, end, direction, sun, None, end_transmittance)
-    return g.vmath("SUBTRACT", shadowed, unshadowed)
+    return g.vmath("SUBTRACT", shadowed, unshadowed), unshadowed
 
 
 def _march(g, gin, camera, direction, length, sun, layout: ShaftLayout, shadow_test, integration):
