@@ -310,18 +310,23 @@ def on_depsgraph_update(scene, depsgraph=None):
     _update_scene(scene)
 
 
+def _match_layout(scene):
+    """wiring.match_light_shaft_layout; the problem that stopped it, or None."""
+    try:
+        wiring.match_light_shaft_layout(scene)
+    except (ValueError, lut_gen.LutError, OSError, KeyError) as exc:
+        return exc
+    return None
+
+
 def _update_frame(scene, depsgraph):
     """Shadow maps and frame values before the frame is composited. Where they cannot be made,
     the light-shaft pass is off for this render and the reason printed (the render completes)."""
     if not scene.get(wiring.WIRED_KEY):
         return
-    try:
-        # First: the settings may have changed the layout since the last depsgraph update
-        # (scripts set controls without one), and sync_settings feeds the groups it builds.
-        wiring.match_light_shaft_layout(scene)
-        problem = None
-    except ValueError as exc:
-        problem = exc
+    # First: the settings may have changed the layout since the last depsgraph update (scripts
+    # set controls without one), and sync_settings feeds the groups it builds.
+    problem = _match_layout(scene)
     compositor.sync_settings(scene)     # e.g. the output format: OpenEXR saves scene-linear
     compositor.sync_layers_output(scene, rendering=True)
     if problem is None:

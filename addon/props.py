@@ -155,8 +155,9 @@ def _rebake_soon(settings, context):
 def _sync_compositor(settings, context):
     """Compositor inputs follow the settings (drivers on a compositor tree do not reach
     renders). Steps, modes and cascade settings rebuild the light-shaft groups, but not here:
-    the depsgraph update that follows each change in the UI, and every render's render_pre,
-    rebuild them once (a script setting ten controls used to rebuild them ten times, ~1 s each)."""
+    the depsgraph update that follows each change in the UI, a still's render_pre and each
+    animation frame's frame_change_pre (which comes before the frame's compositor depsgraph)
+    rebuild them once. A script setting ten controls used to rebuild them ten times, ~1 s each."""
     if context.scene is not None:
         from .scene import compositor
         compositor.sync_settings(context.scene)

@@ -321,7 +321,8 @@ def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.
         sun_net = np.einsum("akstjc,akstj->castk", cell[..., :3], basis)                 # (3, a, s, t, K)
         # The table's first row sits 39 m up and the look-up clamps there: nodes lower down
         # (every ground ray ends at 0 m) need the columns' growth below it, or a low sun's
-        # path through the aerosol is ~3% short and ground rays at sunset read 5-13% too bright.
+        # path misses the aerosol below 39 m (3% of its column) and ground rays at sunset read
+        # 5-13% too bright.
         below = below_first_row_factors(params, node_h, n_odh).astype(np.float32)         # (a, K, 3)
         sun_net *= below.transpose(2, 0, 1)[:, :, None, None, :]
         n_rays = len(nodes.s)

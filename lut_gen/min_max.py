@@ -36,8 +36,9 @@ def _block_reduce(depths, combine, dilate: bool) -> np.ndarray:
     """(cascades, blocks, blocks) ``combine`` (np.maximum or np.minimum) of the depths of each
     BLOCK x BLOCK block, with ``dilate`` also of the texels bordering it: a square that holds
     every PCF tap of the block's texels (the cross of taps would do; the square only leaves a
-    few more points to the exact test). Reduces in place of views: the whole-map copies and
-    pads this replaced cost 0.5 s a frame at 6 cascades of 4096."""
+    few more points to the exact test). Reduces over reshaped views (a padded copy only where
+    the resolution is not a multiple of BLOCK): the whole-map copies and pads this replaced cost
+    5.9 s at 6 cascades of 4096, 0.35 s at 1024."""
     n, res = depths.shape[:2]
     blocks = -(-res // BLOCK)
     size = blocks * BLOCK

@@ -112,7 +112,7 @@ def sky_shadow_share(image, unshadowed, geometry):
     holds part sky, part a dark surface, yet its depth says sky, and the whole darkening left it
     below zero, clamped per channel to teal (EEVEE, sun behind a peak). It now keeps its hue and
     loses the shadowed fraction of the air light, as a darker sky seen through the same air would."""
-    share = np.minimum(1.0, np.asarray(image) / np.maximum(unshadowed, 1e-20))
+    share = np.clip(np.asarray(image) / np.maximum(unshadowed, 1e-20), 0.0, 1.0)     # >= 0: filter ringing
     return np.where(np.asarray(geometry)[..., None], 1.0, share)
 
 

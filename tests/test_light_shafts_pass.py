@@ -282,3 +282,23 @@ def test_show_sampling_draws_the_epipolar_samples(addon_package, tmp_path, monke
     scene.ols.show_sampling = False
     again = render_rgb(scene, tmp_path / "again.exr", composite=True)[::-1]
     np.testing.assert_allclose(again, plain, rtol=1e-5, atol=1e-7)
+
+
+def test_a_script_changing_the_technique_reaches_an_animations_first_frame(addon_package, tmp_path, monkeypatch):
+    """Controls set from a script rebuild the light-shaft groups at the render, not in the
+    controls' update callbacks. An animation composites a frame from a depsgraph built before
+    render_pre, so frame_change_pre must already have rebuilt them: the frame equals a still of
+    the new technique, not of the old one."""
+    import OpenEXR
+    scene = low_sun_scene(addon_package, tmp_path, monkeypatch)
+    epipolar = render_rgb(scene, tmp_path / "epipolar.exr", composite=True)
+    scene.ols.scattering_technique = "BRUTE_FORCE"          # no depsgraph update follows here
+    scene.frame_start = scene.frame_end = scene.frame_current
+    scene.render.use_compositing = True
+    scene.render.filepath = str(tmp_path / "anim_####.exr")
+    bpy.ops.render.render(animation=True)
+    with OpenEXR.File(str(tmp_path / f"anim_{scene.frame_current:04d}.exr")) as exr:
+        frame = np.asarray(exr.channels()["RGBA"].pixels[..., :3], dtype=np.float64)
+    brute = render_rgb(scene, tmp_path / "brute.exr", composite=True)
+    assert np.abs(brute - epipolar).max() > 1e-3 * brute.max()       # the techniques differ here
+    np.testing.assert_allclose(frame, brute, rtol=1e-5, atol=1e-6 * brute.max())

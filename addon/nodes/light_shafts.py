@@ -250,6 +250,7 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     # lut_gen.scattering_pass.sky_shadow_share); no negative light in any case.
     share = g.vmath("MINIMUM", g.vmath("DIVIDE", base, g.vmath("MAXIMUM", g.vmath("MULTIPLY", unshadowed, scale3),
                                                                   (1e-20,) * 3)), (1.0, 1.0, 1.0))
+    share = g.vmath("MAXIMUM", share, (0.0, 0.0, 0.0))
     share = g.vlerp(share, (1.0, 1.0, 1.0), geometry)
     light = g.vmath("MULTIPLY", light, share)
     result = g.vmath("MAXIMUM", g.vmath("MULTIPLY_ADD", light, scale3, base), (0.0, 0.0, 0.0))
