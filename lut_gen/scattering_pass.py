@@ -110,8 +110,9 @@ def sky_shadow_share(image, unshadowed, geometry):
     rendered sky over the unshadowed air light in front of it, at most 1. A sky pixel holds at
     least that air light, so it takes the whole darkening; an antialiased pixel on a silhouette
     holds part sky, part a dark surface, yet its depth says sky, and the whole darkening left it
-    below zero, clamped per channel to teal (EEVEE, sun behind a peak). It now keeps its hue and
-    loses the shadowed fraction of the air light, as a darker sky seen through the same air would."""
+    below zero, clamped per channel to teal (EEVEE, sun behind a peak). Each channel now loses
+    the shadowed fraction of its air light, as a darker sky seen through the same air would: the
+    pixel darkens with every channel kept, its hue nearly so (the fractions differ by channel)."""
     share = np.clip(np.asarray(image) / np.maximum(unshadowed, 1e-20), 0.0, 1.0)     # >= 0: filter ringing
     return np.where(np.asarray(geometry)[..., None], 1.0, share)
 
