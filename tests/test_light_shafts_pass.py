@@ -302,3 +302,29 @@ def test_a_script_changing_the_technique_reaches_an_animations_first_frame(addon
     brute = render_rgb(scene, tmp_path / "brute.exr", composite=True)
     assert np.abs(brute - epipolar).max() > 1e-3 * brute.max()       # the techniques differ here
     np.testing.assert_allclose(frame, brute, rtol=1e-5, atol=1e-6 * brute.max())
+
+
+def test_a_render_redoes_the_shadow_maps_only_when_something_they_depend_on_changed(
+        addon_package, tmp_path, monkeypatch):
+    """A second F12 with only a scene setting changed (the Scene reports a geometry update for
+    any of its properties) reuses the shadow maps and epipolar tables; moving an occluder or
+    hiding it from shadows redoes them."""
+    scene = low_sun_scene(addon_package, tmp_path, monkeypatch, steps=4)
+    shadow_maps = import_module(addon_package.__name__ + ".addon.scene.shadow_maps")
+    calls = []
+    original = shadow_maps.render
+    monkeypatch.setattr(shadow_maps, "render", lambda *a, **k: calls.append(1) or original(*a, **k))
+    first = render_rgb(scene, tmp_path / "first.exr", composite=True)
+    assert len(calls) == 1
+    scene.ols.middle_gray = 0.25                            # tone mapping (muted here): no shadow input
+    scene.render.film_transparent = False
+    render_rgb(scene, tmp_path / "same.exr", composite=True)
+    assert len(calls) == 1
+    terrain = next(o for o in scene.objects if o.type == "MESH")
+    terrain.location.z += 300.0                             # the occluders move: new shadows
+    moved = render_rgb(scene, tmp_path / "moved.exr", composite=True)
+    assert len(calls) == 2
+    assert np.abs(moved - first).max() > 1e-3
+    terrain.visible_shadow = False
+    render_rgb(scene, tmp_path / "unshadowed.exr", composite=True)
+    assert len(calls) == 3

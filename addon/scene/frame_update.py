@@ -97,9 +97,18 @@ def update_frame(scene, depsgraph) -> bool:
 def note_depsgraph_update(depsgraph):
     """Edits to geometry, or to an object (its shadow visibility, say), invalidate the shadow
     maps and epipolar tables even when camera and sun stay put."""
-    if depsgraph is None or any(update.is_updated_geometry or isinstance(update.id, bpy.types.Object)
-                                for update in depsgraph.updates):
+    if depsgraph is None or any(_may_move_shadow_casters(update) for update in depsgraph.updates):
         _state["geometry_changed"] = True
+
+
+def _may_move_shadow_casters(update) -> bool:
+    """Objects and collections (visibility, exclusion) and geometry data. Not the Scene: its
+    update claims geometry on any change of a scene property, a render setting say, and would
+    make every F12 redo the shadow maps and epipolar tables; not images either, which report
+    geometry when the frame update itself writes them."""
+    if isinstance(update.id, (bpy.types.Object, bpy.types.Collection)):
+        return True
+    return update.is_updated_geometry and not isinstance(update.id, (bpy.types.Scene, bpy.types.Image))
 
 
 def set_rendering(active: bool):
