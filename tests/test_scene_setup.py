@@ -371,3 +371,25 @@ def test_terrain_gets_the_lamps_exact_colour_at_a_low_sun(addon, elevation):
     material = objects["terrain"].active_material.evaluated_get(depsgraph)
     seen = np.array(material.node_tree.nodes["OLS Terrain"].inputs["Origin Transmittance"].default_value[:3])
     np.testing.assert_allclose(seen, lamp, rtol=1e-5)
+
+
+def test_light_shaft_groups_wait_while_the_shafts_are_off(addon):
+    """A rebuild costs about a second: while the shafts are off, layout controls change no
+    group; turning them on builds the groups for the settings of that moment."""
+    bpy.ops.wm.read_factory_settings()
+    scene = bpy.context.scene
+    bpy.data.objects["Cube"].select_set(True)
+    assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+    group = bpy.data.node_groups["OLS Light Shafts"]
+    built = group["ols_layout"]
+    scene.ols.enable_light_shafts = False
+    scene.ols.num_cascades = 3
+    scene.ols.smooth_shadows = False
+    scene.frame_set(scene.frame_current)                      # the scene handlers run
+    assert group["ols_layout"] == built
+    assert scene.compositing_node_group.nodes["OLS Light Shafts"].mute
+    scene.ols.enable_light_shafts = True
+    scene.frame_set(scene.frame_current)
+    layout = bpy.data.node_groups["OLS Light Shafts"]["ols_layout"]
+    assert layout != built and ", 3, " in layout and "False" in layout
+    assert not scene.compositing_node_group.nodes["OLS Light Shafts"].mute

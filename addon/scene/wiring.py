@@ -69,12 +69,16 @@ def build_light_shafts(scene, optical_image, params):
 
 def match_light_shaft_layout(scene) -> bool:
     """Rebuild the light-shaft groups when steps, modes, cascades, PCF, cascade search or the
-    shadow-map resolution changed; True when rebuilt."""
+    shadow-map resolution changed; True when rebuilt. Not while the shafts are off: their node
+    is muted and reads nothing, and a rebuild costs about a second, so it waits until they are
+    turned on again."""
     group = bpy.data.node_groups.get(nodes.LIGHT_SHAFTS_GROUP)
     info = bake_info(scene)
     if group is None or info is None:
         return False
     settings = props.Sanitized(scene.ols)
+    if not (settings.enable_light_scattering and settings.enable_light_shafts):
+        return False
     layout = nodes.ShaftLayout.from_settings(settings, epipolar_tables.technique(settings))
     if (group.get("ols_layout") == layout.as_key() and epipolar_tables.images_intact(layout)
             and shadow_maps.images_intact(bpy.data.node_groups.get(nodes.SHADOW_TEST_GROUP))):
