@@ -123,7 +123,8 @@ class EpipolarFrame:
         return {"Epipolar Axis 1": self.axis1, "Epipolar Axis 2": self.axis2,
                 "Epipolar Phi": (self.phi0, self.phi_span, float(self.full_turn)),
                 "Epipolar Theta": (self.theta0, self.theta_span, 0.0),
-                "Epipolar Depth": (self.t_max, self.growth, 0.0)}
+                "Epipolar Depth": (self.t_max, self.growth, 0.0),
+                "Epipolar Grid": (self.slices, self.samples, self.steps)}
 
 
 def _unit(v):

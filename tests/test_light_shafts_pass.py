@@ -328,3 +328,26 @@ def test_a_render_redoes_the_shadow_maps_only_when_something_they_depend_on_chan
     terrain.visible_shadow = False
     render_rgb(scene, tmp_path / "unshadowed.exr", composite=True)
     assert len(calls) == 3
+
+
+def test_new_epipolar_table_sizes_resize_images_and_rebuild_no_group(addon_package, tmp_path, monkeypatch):
+    """Slices, samples and steps reach the epipolar group as frame values: dragging one of them
+    in the panel resizes the table images (cheap) instead of rebuilding the groups (~1 s), and
+    the render at the new sizes still matches the twin."""
+    scene = low_sun_scene(addon_package, tmp_path, monkeypatch, steps=8)
+    scene.ols.scattering_technique = "EPIPOLAR_SAMPLING"
+    passes = render_passes(addon_package, scene, tmp_path)
+    render_rgb(scene, tmp_path / "first.exr", composite=True)
+    wiring = import_module(addon_package.__name__ + ".addon.scene.wiring")
+    builds = []
+    original = wiring.build_light_shafts
+    monkeypatch.setattr(wiring, "build_light_shafts", lambda *a, **k: builds.append(1) or original(*a, **k))
+    twin = Twin(addon_package, scene, passes)
+    for slices, samples, steps in ((96, 64, 12), (200, 150, 6)):
+        scene.ols.epipolar_slices, scene.ols.samples_per_slice, scene.ols.num_integration_steps = slices, samples, steps
+        scene.frame_set(scene.frame_current)                 # the UI's depsgraph update
+        lit = bpy.data.images["OLS Epipolar Lit"]
+        assert tuple(lit.size) == (samples, (slices + 1) * steps)
+        seen = render_rgb(scene, tmp_path / f"s{slices}.exr", composite=True)[::-1]
+        assert np.median(relative_error(seen, twin())) <= 0.03, (slices, samples, steps)
+    assert builds == []

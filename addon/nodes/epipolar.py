@@ -30,6 +30,10 @@ INPUTS = [
     ("Epipolar Phi", "NodeSocketVector", (0.0, 1.0, 0.0)),
     ("Epipolar Theta", "NodeSocketVector", (0.0, 1.0, 0.0)),
     ("Epipolar Depth", "NodeSocketVector", (1.0, 1.0, 1.0)),     # z: the in-scattering grid's reach
+    # (slices, samples, distances) of the tables and of the in-scattering grid: values of the
+    # frame, not of the graph, so changing them rebuilds no group (only the images' sizes change).
+    ("Epipolar Grid", "NodeSocketVector", (1.0, 2.0, 2.0)),
+    ("Epipolar Air Grid", "NodeSocketVector", (1.0, 2.0, 2.0)),
     ("Show Sampling", "NodeSocketFloat", 0.0),
     # The raw render and the aerial group's transmittance: the epipolar pass makes the whole
     # image (its "Image" input, the aerial group's, is read only when the node is muted).
@@ -76,11 +80,6 @@ def image_size(slices: int, samples: int, steps: int):
     return samples, (slices + 1) * steps
 
 
-def air_image_size(slices: int, samples: int):
-    """(width, height) of the in-scattering images for lit-length tables of slices x samples."""
-    return image_size(*epipolar_air.air_dims(slices, samples))
-
-
 def _grid_coordinates(g, gin, direction, sun):
     """(slice fraction, sample fraction), each in [0, 1], of the pixel ray ``direction``."""
     phi0, phi_span, full = g.separate(gin.outputs["Epipolar Phi"])
@@ -96,33 +95,35 @@ def _grid_coordinates(g, gin, direction, sun):
 
 
 def _distance_node(g, distance, t_max, growth, steps):
-    """Fractional node index of ``distance`` on the geometric grid t_max ((1 + a)^(k / (K - 1)) - 1) / a."""
+    """Fractional node index of ``distance`` on the geometric grid t_max ((1 + a)^(k / (K - 1)) - 1) / a
+    (``steps``: K, a socket)."""
     t = g.clamp(g.div(distance, t_max), 0.0, 1.0)
     return g.mul(g.div(g.math("LOGARITHM", g.mul_add(growth, t, 1.0), math.e),
-                       g.math("LOGARITHM", g.add(growth, 1.0), math.e)), float(steps - 1))
+                       g.math("LOGARITHM", g.add(growth, 1.0), math.e)), g.sub(steps, 1.0))
 
 
 class _Grid:
-    """A table grid (dims = slices, samples, steps) at the pixel's grid fractions: the slice
-    pair and the column are found once for every fetch of its images."""
+    """A table grid at the pixel's grid fractions: the slice pair and the column are found once
+    for every fetch of its images. ``dims``: the (slices, samples, steps) socket; the image is
+    samples wide and (slices + 1) steps high (image_size)."""
 
     def __init__(self, g, dims, across, along):
-        self.g, self.dims = g, dims
-        S, N, K = dims
-        x = g.mul(across, float(S))
-        self.slice = g.math("MINIMUM", g.math("FLOOR", x), float(S - 1))
+        self.g = g
+        S, N, self.K = g.separate(dims)
+        x = g.mul(across, S)
+        self.slice = g.math("MINIMUM", g.math("FLOOR", x), g.sub(S, 1.0))
         self.weight = g.sub(x, self.slice)
-        width, self.height = image_size(S, N, K)
-        self.u = g.div(g.mul_add(along, float(N - 1), 0.5), float(width))
-        self.first_row = g.mul(self.slice, float(K))
+        self.height = g.mul(g.add(S, 1.0), self.K)
+        self.u = g.div(g.mul_add(along, g.sub(N, 1.0), 0.5), N)
+        self.first_row = g.mul(self.slice, self.K)
 
     def fetch(self, image, z):
         """``image`` at distance node ``z``: bilinear in hardware along samples and distances,
         the two slices blended by hand."""
-        g, K = self.g, self.dims[2]
+        g = self.g
         row = g.add(self.first_row, g.add(z, 0.5))
-        rows = [g.image(image, g.combine(self.u, g.div(g.add(row, offset), float(self.height)), 1.0),
-                        interpolation="Linear") for offset in (0.0, float(K))]
+        rows = [g.image(image, g.combine(self.u, g.div(g.add(row, offset), self.height), 1.0),
+                        interpolation="Linear") for offset in (0.0, self.K)]
         return g.vlerp(rows[0], rows[1], self.weight)
 
 
@@ -136,8 +137,8 @@ def in_scattering(g, gin, direction, length, sun, geometry, layout, images, mie_
     lit_image, integral_image, _, air_images = images
     across, along = _grid_coordinates(g, gin, direction, sun)
     t_max, growth, reach = g.separate(gin.outputs["Epipolar Depth"])
-    grid = _Grid(g, (layout.slices, layout.samples, layout.steps), across, along)
-    z = _distance_node(g, length, t_max, growth, layout.steps)
+    grid = _Grid(g, gin.outputs["Epipolar Grid"], across, along)
+    z = _distance_node(g, length, t_max, growth, grid.K)
     lit_length, first_lit, _ = g.separate(grid.fetch(lit_image, z))
     # Beyond the grid (past the farthest shadow caster) the air is lit, as outside every cascade.
     beyond = g.math("MAXIMUM", g.sub(length, t_max), 0.0)
@@ -145,14 +146,13 @@ def in_scattering(g, gin, direction, length, sun, geometry, layout, images, mie_
     first_lit = g.math("MINIMUM", first_lit, length)
     distances = {"end": length, "first": first_lit, "lit_end": g.add(first_lit, lit_length)}
 
-    air_dims = epipolar_air.air_dims(layout.slices, layout.samples)
-    air_grid = _Grid(g, air_dims, across, along)
+    air_grid = _Grid(g, gin.outputs["Epipolar Air Grid"], across, along)
     air_growth = g.div(reach, epipolar.MIN_NEAR)
     nodes_at, fetched = {}, {}
 
     def fetch(table, name):
         if name not in nodes_at:
-            nodes_at[name] = _distance_node(g, distances[name], reach, air_growth, air_dims[2])
+            nodes_at[name] = _distance_node(g, distances[name], reach, air_growth, air_grid.K)
         if (table, name) not in fetched:
             fetched[table, name] = air_grid.fetch(air_images[AIR_IMAGES[table]], nodes_at[name])
         return fetched[table, name]

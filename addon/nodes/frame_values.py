@@ -18,7 +18,8 @@ MAX_CASCADES = 8
 VECTOR_ROWS = (["Camera Position", "Camera Forward", "Camera Right", "Camera Up", "Tan Half FOV", "Sun Direction",
                 "Light Right", "Light Up"]
                + [f"Cascade {i} {part}" for i in range(MAX_CASCADES) for part in ("Center", "Half")]
-               + ["Epipolar Axis 1", "Epipolar Axis 2", "Epipolar Phi", "Epipolar Theta", "Epipolar Depth"])
+               + ["Epipolar Axis 1", "Epipolar Axis 2", "Epipolar Phi", "Epipolar Theta", "Epipolar Depth",
+                  "Epipolar Grid", "Epipolar Air Grid"])
 SCALAR_ROW = "Scalars"       # x: sun strength, y: far depth of the last cascade, z: sky depth
 ROWS = VECTOR_ROWS + [SCALAR_ROW]
 SCALARS = ("Sun Strength", "Far Depth", "Sky Depth")

@@ -44,8 +44,6 @@ class ShaftLayout:
     best_search: bool = True
     resolution: int = 1024
     technique: str = "BRUTE_FORCE"
-    slices: int = 0                 # epipolar table size (0 for brute force)
-    samples: int = 0
     show_cascades: bool = False     # the tint costs a shadow test per pixel: built only when shown
 
     @property
@@ -57,12 +55,11 @@ class ShaftLayout:
         """``technique`` overrides the setting (the add-on falls back to brute force where
         epipolar sampling cannot serve the frame)."""
         technique = technique or settings.scattering_technique
-        epipolar = technique == "EPIPOLAR_SAMPLING"
-        return cls(settings.num_integration_steps, settings.num_cascades, settings.single_scattering_mode,
-                   settings.multiple_scattering_mode, settings.smooth_shadows, settings.best_cascade_search,
-                   int(settings.shadow_map_resolution), technique,
-                   settings.epipolar_slices if epipolar else 0, settings.samples_per_slice if epipolar else 0,
-                   settings.show_cascades)
+        # The epipolar graph does not unroll the steps: the tables' sizes are frame values.
+        steps = 0 if technique == "EPIPOLAR_SAMPLING" else settings.num_integration_steps
+        return cls(steps, settings.num_cascades, settings.single_scattering_mode, settings.multiple_scattering_mode,
+                   settings.smooth_shadows, settings.best_cascade_search, int(settings.shadow_map_resolution),
+                   technique, settings.show_cascades)
 
     def as_key(self) -> str:
         return repr(tuple(self.__dict__.values()))

@@ -42,23 +42,29 @@ def too_large(settings) -> str | None:
             "marching runs instead (lower the slices, samples or steps to use epipolar sampling)")
 
 
-def _sized_images(layout) -> dict:
-    """{name: (width, height)} of the per-frame table images the layout reads."""
-    sizes = {LIT_IMAGE: nodes.epipolar.image_size(layout.slices, layout.samples, layout.steps)}
+def _sized_images(layout, settings) -> dict:
+    """{name: (width, height)} of the per-frame table images the layout reads, at the sizes
+    of the settings' slices, samples and steps. The group reads those sizes from the frame
+    values, so a change of them resizes images and rebuilds no group."""
+    sizes = {LIT_IMAGE: nodes.epipolar.image_size(settings.epipolar_slices, settings.samples_per_slice,
+                                                  settings.num_integration_steps)}
     if layout.single_mode == "INTEGRATION":
         sizes[INTEGRAL_IMAGE] = sizes[LIT_IMAGE]
+    air = epipolar_air.air_dims(settings.epipolar_slices, settings.samples_per_slice)
     for name in nodes.epipolar.AIR_IMAGES.values():
-        sizes[name] = nodes.epipolar.air_image_size(layout.slices, layout.samples)
+        sizes[name] = nodes.epipolar.image_size(*air)
     return sizes
 
 
-def ensure_images(layout):
+def ensure_images(layout, settings):
     """(lit image, integral image or None, sampling overlay, {name: in-scattering image}) at
-    the layout's sizes; None and {} for brute force."""
+    the sizes ``settings`` need (scene.ols, sanitized); None and {} for brute force. Sized
+    here, before a render: an image made anew while an animation renders would be freed under
+    the render's copy of the compositor (a crash)."""
     if not layout.epipolar:
         return None, None, None, {}
     images = {}
-    for name, (width, height) in _sized_images(layout).items():
+    for name, (width, height) in _sized_images(layout, settings).items():
         image = bpy.data.images.get(name)
         if image is None or tuple(image.size) != (width, height):
             image = luts.write_data_image(name, np.zeros((height, width, 4), dtype=np.float32))
@@ -69,12 +75,21 @@ def ensure_images(layout):
     return images[LIT_IMAGE], images.get(INTEGRAL_IMAGE), sampling, air
 
 
-def images_intact(layout) -> bool:
+def resize_images(layout, settings) -> bool:
+    """Bring existing table images to the sizes ``settings`` need (the group's image nodes
+    follow, see luts.write_data_image); False when one is missing (the group must be rebuilt)."""
+    if not all(bpy.data.images.get(name) is not None for name in (*_sized_images(layout, settings), SAMPLING_IMAGE)):
+        return False
+    ensure_images(layout, settings)
+    return True
+
+
+def images_intact(layout, settings) -> bool:
     if not layout.epipolar:
         return True
     return (bpy.data.images.get(SAMPLING_IMAGE) is not None
             and all(bpy.data.images.get(name) is not None and tuple(bpy.data.images[name].size) == size
-                    for name, size in _sized_images(layout).items()))
+                    for name, size in _sized_images(layout, settings).items()))
 
 
 def update(scene, camera, sun_direction, cascades, luts_object) -> dict:
@@ -104,4 +119,5 @@ def update(scene, camera, sun_direction, cascades, luts_object) -> dict:
     luts.write_data_image(SAMPLING_IMAGE, overlay)
     values = frame.as_values()
     values["Epipolar Depth"] = (frame.t_max, frame.growth, air.t_max)
+    values["Epipolar Air Grid"] = (air.slices, air.samples, air.steps)
     return values

@@ -63,7 +63,7 @@ def build_light_shafts(scene, optical_image, params):
     atlas, table = shadow_maps.ensure_images(int(settings.shadow_map_resolution), settings.num_cascades)
     layout = nodes.ShaftLayout.from_settings(settings, epipolar_tables.technique(settings))
     nodes.build_light_shaft_groups(optical_image, atlas, table, params, layout,
-                                   epipolar_tables.ensure_images(layout))
+                                   epipolar_tables.ensure_images(layout, settings))
     frame_update.forget()           # new groups may read new (empty) images: write them again
 
 
@@ -80,9 +80,13 @@ def match_light_shaft_layout(scene) -> bool:
     if not (settings.enable_light_scattering and settings.enable_light_shafts):
         return False
     layout = nodes.ShaftLayout.from_settings(settings, epipolar_tables.technique(settings))
-    if (group.get("ols_layout") == layout.as_key() and epipolar_tables.images_intact(layout)
+    if (group.get("ols_layout") == layout.as_key()
             and shadow_maps.images_intact(bpy.data.node_groups.get(nodes.SHADOW_TEST_GROUP))):
-        return False
+        if epipolar_tables.images_intact(layout, settings):
+            return False
+        if epipolar_tables.resize_images(layout, settings):   # new slices, samples or steps
+            frame_update.forget()
+            return False
     build_light_shafts(scene, bpy.data.images[luts.image_name("optical_depth", info.key)], info.params)
     compositor.link_light_shafts(scene)
     return True
