@@ -11,7 +11,8 @@ unshadowed in-scattering the aerial pass (or the sky) already holds:
 
 The march length, the modes, the number of cascades, PCF and the cascade search change the
 structure of the group: ``ShaftLayout`` names them and a change rebuilds the groups. Everything
-else (camera, sun, cascade rectangles, first cascade, show cascades) arrives as inputs.
+else (camera, sun, cascade rectangles, first cascade, show cascades, and the epipolar tables'
+slices, samples and steps) arrives as inputs.
 """
 from __future__ import annotations
 
