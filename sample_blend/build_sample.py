@@ -16,12 +16,17 @@ Pure bpy + numpy (no add-on imports), usable two ways:
 Scene layout (1 Blender unit = 1 m, Z up, ground at z = 0):
 
 * "OLS Terrain": a ``size_m`` x ``size_m`` height field centred on the origin. A gentle valley
-  runs along +Y past the camera; a ridge of mountains (peaks ~600-1200 m) crosses the terrain
-  about 3.9 km in front of the camera (around y = +0.2 * size_m), with a high plateau behind it.
+  runs along +Y past the camera; three ridges cross it at increasing distance, each higher than
+  the one in front so that the aerial perspective shows as layers: foothills (~100 m) about
+  1.4 km in front of the camera, a middle ridge (~250-550 m) about 2.9 km away and the main
+  range (peaks ~600-1200 m, a high plateau behind it) about 4.5 km away (``RIDGES``). A pass
+  cuts through all three toward azimuth ``GAP_AZIMUTH_DEG`` (20 deg, the ``sunset`` look's sun),
+  down to the valley floor, so that a low sun shines through it toward the camera between the
+  ridges' shadows.
 * "OLS Camera": 40 m above the valley floor near the -Y edge (y = -0.45 * size_m), looking
   along +Y and 4 degrees up, 28 mm lens.
 * "OLS Sun": a Sun lamp; azimuth is measured from +Y toward +X, so the default azimuth 0 puts
-  the sun straight ahead of the camera, behind the ridge. At low sun the mountains cast long
+  the sun straight ahead of the camera, behind the ridges. At low sun the mountains cast long
   shadows toward the camera.
 """
 from __future__ import annotations
@@ -51,11 +56,21 @@ WORLD_NAME = "Sample Placeholder World"   # the add-on wires its own "OLS World"
 
 # Layout, as fractions of the terrain size (the terrain spans [-size/2, size/2] in x and y).
 CAMERA_Y_FRACTION = -0.45      # camera 0.05 * size from the -Y edge
-RIDGE_Y_FRACTION = 0.20        # ridge line, ~0.65 * size in front of the camera
+# Three ridges across the valley at increasing distance, each higher than the one in front so
+# that its crests show above it: (crest line y fraction, share of the peak height, front and back
+# half-widths in terrain fractions, share of the ridge's height that does not depend on the crest
+# noise: lower is more rugged). Seen from the camera they stand ~1.4, ~2.9 and ~4.5 km away.
+RIDGES = (
+    (-0.215, 0.12, 0.035, 0.045, 0.75),   # foothills, ~80-170 m
+    (0.035, 0.60, 0.050, 0.060, 0.65),    # middle ridge, ~250-700 m
+    (0.30, 1.00, 0.075, None, 0.50),      # main range, peaks ~0.9-1.2 km; a high plateau behind
+)
+GAP_AZIMUTH_DEG = 20.0         # a pass through every ridge, seen from the camera toward the
+                               # azimuth of the `sunset` look: a low sun shines through it
 CAMERA_HEIGHT_M = 40.0         # above the terrain surface under the camera
 CAMERA_PITCH_DEG = 4.0         # above the horizontal
 CAMERA_LENS_MM = 28.0
-PEAK_HEIGHT_M = 1080.0         # ridge component peak; with the valley floor the top is ~1.2 km
+PEAK_HEIGHT_M = 1080.0         # mountains' peak; with the valley floor the top is ~1.2 km
 
 SUN_ANGLE_DEG = 0.545          # the sun's angular diameter
 
@@ -123,33 +138,77 @@ def _smoothstep(e0: float, e1: float, x: np.ndarray) -> np.ndarray:
 _REFERENCE_RESOLUTION = 257
 
 
+def _smooth_max(a: np.ndarray, b: np.ndarray, k: float) -> np.ndarray:
+    """max(a, b) with a rounded crease of width ``k`` where the two meet (a valley floor
+    between two ridges instead of a sharp fold)."""
+    h = np.clip(0.5 + 0.5 * (b - a) / k, 0.0, 1.0)
+    return a + (b - a) * h + k * h * (1.0 - h)
+
+
 def _terrain_fields(u: np.ndarray, v: np.ndarray, seed: int):
     """Unnormalised parts of the height field at terrain coordinates ``u``, ``v`` in [0, 1]
-    (u along +X, v along +Y): ``(crests, shape, ground)``: ridged noise (unnormalised), the
-    mountains' envelope (ridge mask x peak modulation, <= 1) and the valley ground in metres."""
+    (u along +X, v along +Y): ``(crests, shapes, cut, ground)``: ridged noise (unnormalised),
+    one envelope per ridge (ridge mask x share of the peak height x crest line, <= 1), the
+    pass through the ridges (0 on its floor, 1 away from it) and the valley ground in metres."""
     rng = np.random.default_rng(seed)   # fresh per call: the same lattices for every grid
-    # Ridge line: a wavy crest across the terrain around v = 0.5 + RIDGE_Y_FRACTION.
-    wobble = _fbm(rng, u, np.full_like(v, 0.5), 3, 3)
-    ridge_v = 0.5 + RIDGE_Y_FRACTION + 0.035 * np.sin(2.0 * np.pi * 1.3 * u + 0.7) + 0.03 * wobble
-    d = (v - ridge_v) / 0.11                     # signed distance to the crest, in ridge widths
-    front = np.exp(-d * d)                        # toward the camera: falls off to the valley
-    back = 0.55 + 0.45 * np.exp(-d * d / 2.5)     # behind: a high plateau hides the far edge
-    mask = np.where(d < 0.0, front, back)
-    # Mountains: ridged noise for sharp crests, a low-frequency envelope for distinct peaks.
-    crests = _ridged(rng, u, v, 6, 6)
-    envelope = 0.5 + 0.5 * (0.5 + 0.5 * _fbm(rng, u, v, 3, 2))
+    crests = _ridged(rng, u, v, 6, 6)   # sharp crests, shared by the ridges
+    shapes = []
+    side = np.abs(u - 0.5) * 2.0        # 0 on the view axis, 1 at the side edges
+    # Noise along the ridges depends on u only: evaluated once per distinct u (grid column).
+    u_values, u_index = np.unique(u, return_inverse=True)
+    along_ridge = np.full_like(u_values, 0.5)
+
+    def along_u(cells, octaves, gain=0.5):
+        return _fbm(rng, u_values, along_ridge, cells, octaves, gain)[u_index].reshape(u.shape)
+
+    # Spurs and gullies down the flanks: a ridge is wider where this noise is high.
+    width = 0.65 + 0.7 * _fbm(rng, u, v, 10, 4)
+    for k, (ridge_y, share, front_w, back_w, _base) in enumerate(RIDGES):
+        # A wavy crest line across the terrain; the main range bends toward the camera at the
+        # sides so that it still closes the view at the frame's edges.
+        ridge_v = (0.5 + ridge_y + 0.03 * np.sin(2.0 * np.pi * (1.1 + 0.4 * k) * u + 0.7 + 1.9 * k)
+                   + 0.025 * along_u(3, 3) - (0.06 * side * side if back_w is None else 0.0))
+        # The crest's height along the ridge: jagged peaks and saddles.
+        skyline = 0.7 + 0.3 * along_u(4 + 2 * k, 6, gain=0.55)
+        d = (v - ridge_v) / width                         # signed distance to the crest
+        front = np.exp(-(d / front_w) ** 2)               # toward the camera: down to the valley
+        if back_w is None:                                # behind the main range: a high plateau
+            back = 0.55 + 0.45 * np.exp(-(d / front_w) ** 2 / 2.5)
+        else:
+            back = np.exp(-(d / back_w) ** 2)
+        mask = np.where(d < 0.0, front, back)
+        if k == 1:      # the middle ridge is lower at the right, toward the `golden-hour` sun
+            share = share * (1.0 - 0.4 * _smoothstep(0.6, 0.9, u))
+        shapes.append(share * mask * skyline)
+    # The pass: a valley floor ~60-120 m wide along the line of sight toward GAP_AZIMUTH_DEG, whose
+    # flanks widen with the distance from the camera (a V-shaped notch in each ridge).
+    az = math.radians(GAP_AZIMUTH_DEG)
+    du, dv = u - 0.5, v - (0.5 + CAMERA_Y_FRACTION)
+    across = du * math.cos(az) - dv * math.sin(az)
+    along = np.maximum(du * math.sin(az) + dv * math.cos(az), 0.0)
+    floor_w = 0.005 + 0.006 * along
+    cut = _smoothstep(0.0, 1.0, (np.abs(across) - floor_w) / (0.02 + 0.08 * along))
     # Valley: gentle rolling ground (a few tens of m), rising toward the sides (in metres).
     rolling = 25.0 * (0.5 + 0.5 * _fbm(rng, u, v, 8, 5))
     sides = 160.0 * _smoothstep(0.12, 0.5, np.abs(u - 0.5)) ** 2 * (0.7 + 0.3 * _fbm(rng, u, v, 4, 3))
-    return crests, mask * envelope, rolling + np.maximum(sides, 0.0)
+    return crests, np.stack(shapes), cut, rolling + np.maximum(sides, 0.0)
+
+
+def _mountains(fields, crest_range):
+    """The mountains' height (unscaled, peak ~1): the ridges, smoothly merged, cut by the pass."""
+    crests, shapes, cut, _ground = fields
+    lo, hi = crest_range
+    crests = np.clip((crests - lo) / max(hi - lo, 1e-12), 0.0, 1.0)
+    base = np.array([ridge[4] for ridge in RIDGES])[:, None, None]
+    ridges = shapes * (base + (1.0 - base) * crests)
+    merged = ridges[0]
+    for ridge in ridges[1:]:
+        merged = _smooth_max(merged, ridge, 0.04)
+    return merged * cut
 
 
 def _combine(fields, crest_range, mountain_max, floor):
-    crests, shape, ground = fields
-    lo, hi = crest_range
-    crests = np.clip((crests - lo) / max(hi - lo, 1e-12), 0.0, 1.0)
-    mountains = shape * (0.35 + 0.65 * crests)
-    return mountains * (PEAK_HEIGHT_M / mountain_max) + ground - floor
+    return _mountains(fields, crest_range) * (PEAK_HEIGHT_M / mountain_max) + fields[3] - floor
 
 
 def terrain_heightmap(size_m: float = 6000.0, resolution: int = 256, seed: int = 7):
@@ -169,9 +228,9 @@ def terrain_heightmap(size_m: float = 6000.0, resolution: int = 256, seed: int =
     # Normalisation constants from the fixed reference grid.
     ref = np.linspace(0.0, 1.0, _REFERENCE_RESOLUTION)
     ref_fields = _terrain_fields(*np.meshgrid(ref, ref), seed)
-    crests, shape, _ = ref_fields
+    crests = ref_fields[0]
     crest_range = (float(crests.min()), float(crests.max()))
-    mountain_max = float(_combine((crests, shape, 0.0), crest_range, 1.0, 0.0).max()) / PEAK_HEIGHT_M
+    mountain_max = float(_mountains(ref_fields, crest_range).max())
     ref_heights = _combine(ref_fields, crest_range, mountain_max, 0.0)
     floor = float(ref_heights.min())
 
@@ -216,29 +275,39 @@ def _ensure_node_tree(idblock) -> None:
 
 
 # Ground covers (linear albedo): measured spectral albedos averaged to RGB, roughly (grass
-# 0.05-0.15, dry scrub 0.15-0.25, bare rock 0.15-0.3, old snow 0.6-0.8).
+# 0.05-0.15, dry scrub 0.15-0.25, bare rock 0.08-0.3, old snow 0.6-0.8).
 GRASS_ALBEDO = (0.055, 0.085, 0.030, 1.0)
 SCRUB_ALBEDO = (0.150, 0.130, 0.080, 1.0)
-ROCK_ALBEDO = (0.200, 0.180, 0.160, 1.0)
-SNOW_ALBEDO = (0.700, 0.720, 0.760, 1.0)
-SNOW_LINE_M = 850.0            # snow lies above this on slopes flatter than ~35 deg
-ROCK_SLOPE_COS = (0.92, 0.80)  # from grass (cos slope above the first) to rock (below the second)
+ROCK_ALBEDO = (0.130, 0.106, 0.082, 1.0)         # brownish-grey weathered rock (the mean)
+ROCK_LIGHT_ALBEDO = (0.230, 0.215, 0.190, 1.0)   # paler bands and freshly broken faces
+ROCK_DARK_ALBEDO = (0.075, 0.068, 0.058, 1.0)    # lichen-dark and wet patches, dark bands
+SNOW_ALBEDO = (0.720, 0.740, 0.780, 1.0)
+OLD_SNOW_ALBEDO = (0.600, 0.620, 0.660, 1.0)     # older, wind-packed snow
+SNOW_LINE_M = 680.0            # snow lies above this (ragged by ~+-120 m) on slopes flatter than ~55 deg
+SNOW_SLOPE_COS = (0.44, 0.60)  # from bare (cos slope below the first) to full snow (above the second)
+ROCK_SLOPE_COS = (0.80, 0.64)  # from grass (cos slope above the first) to rock (below the second)
+ALPINE_M = (650.0, 1050.0)      # grass thins out with height: rock reaches gentler slopes up there
+STRATA_SPACING_M = 60.0        # vertical spacing of the rock's bands
 
 
 def _socket(sockets, identifier):
     return next(socket for socket in sockets if socket.identifier == identifier)
 
 
-def _mix_colour(tree, factor, a, b):
+def _set(tree, socket, value):
+    if isinstance(value, bpy.types.NodeSocket):
+        tree.links.new(value, socket)
+    else:
+        socket.default_value = value
+
+
+def _mix_colour(tree, factor, a, b, blend="MIX"):
     """A Mix node (colour) of sockets/values ``a`` and ``b`` by ``factor``; returns its output."""
     mix = tree.nodes.new("ShaderNodeMix")
     mix.data_type = "RGBA"
+    mix.blend_type = blend
     for identifier, value in (("Factor_Float", factor), ("A_Color", a), ("B_Color", b)):
-        socket = _socket(mix.inputs, identifier)
-        if isinstance(value, bpy.types.NodeSocket):
-            tree.links.new(value, socket)
-        else:
-            socket.default_value = value
+        _set(tree, _socket(mix.inputs, identifier), value)
     return _socket(mix.outputs, "Result_Color")
 
 
@@ -251,11 +320,71 @@ def _map_range(tree, value, low, high):
     return node.outputs["Result"]
 
 
+def _math(tree, operation, *values):
+    """A Math node of sockets/values; returns its output."""
+    node = tree.nodes.new("ShaderNodeMath")
+    node.operation = operation
+    for socket, value in zip(node.inputs, values):
+        _set(tree, socket, value)
+    return node.outputs[0]
+
+
+def _noise(tree, vector, scale, detail, roughness=0.5, distortion=0.0):
+    """A Noise texture node (fBm, "Musgrave-like" with detail) at ``vector``; returns its Fac."""
+    node = tree.nodes.new("ShaderNodeTexNoise")
+    tree.links.new(vector, node.inputs["Vector"])
+    for name, value in (("Scale", scale), ("Detail", detail), ("Roughness", roughness),
+                        ("Distortion", distortion)):
+        node.inputs[name].default_value = value
+    return node.outputs["Fac"]
+
+
+def _scaled(colour, k):
+    return tuple(min(1.0, k * c) for c in colour[:3]) + (1.0,)
+
+
+def _rock_colour(tree, position):
+    """Bare rock: brownish grey, with large tonal patches (Noise), blocky faces (Voronoi), bands
+    along the height that wander across the slopes (Wave: strata) and lichen-dark patches."""
+    tone = _noise(tree, position, 0.0025, 6.0, 0.6)           # ~400 m patches
+    rock = _mix_colour(tree, _map_range(tree, tone, 0.36, 0.64),
+                       _scaled(ROCK_ALBEDO, 0.8), _scaled(ROCK_ALBEDO, 1.2))
+    strata = tree.nodes.new("ShaderNodeTexWave")
+    strata.wave_type = "BANDS"
+    strata.bands_direction = "Z"
+    strata.wave_profile = "SIN"
+    tree.links.new(position, strata.inputs["Vector"])
+    # Blender's Z bands run at phase 20 * scale * z: one band every STRATA_SPACING_M.
+    strata.inputs["Scale"].default_value = 2.0 * math.pi / (20.0 * STRATA_SPACING_M)
+    strata.inputs["Distortion"].default_value = 10.0
+    strata.inputs["Detail"].default_value = 4.0
+    strata.inputs["Detail Scale"].default_value = 0.8
+    strata.inputs["Detail Roughness"].default_value = 0.6
+    band = strata.outputs["Fac"]
+    # The bands show in places only (~600 m patches).
+    bedded = _map_range(tree, _noise(tree, position, 0.0016, 3.0), 0.4, 0.6)
+    rock = _mix_colour(tree, _math(tree, "MULTIPLY", _math(tree, "MULTIPLY", _map_range(tree, band, 0.6, 0.95), bedded), 0.35),
+                       rock, ROCK_LIGHT_ALBEDO)
+    blocks = tree.nodes.new("ShaderNodeTexVoronoi")           # ~45 m faces, each a little
+    blocks.feature = "F1"                                     # paler or darker
+    tree.links.new(position, blocks.inputs["Vector"])
+    blocks.inputs["Scale"].default_value = 1.0 / 45.0
+    cell = tree.nodes.new("ShaderNodeSeparateColor")
+    tree.links.new(blocks.outputs["Color"], cell.inputs["Color"])
+    rock = _mix_colour(tree, 1.0, rock, _math(tree, "MULTIPLY_ADD", cell.outputs["Red"], 0.3, 0.85),
+                       blend="MULTIPLY")
+    lichen = _noise(tree, position, 0.02, 8.0, 0.65, 0.4)     # ragged ~50 m patches
+    dark = _math(tree, "MAXIMUM", _map_range(tree, lichen, 0.55, 0.67),
+                 _math(tree, "MULTIPLY", _math(tree, "MULTIPLY", _map_range(tree, band, 0.25, 0.0), bedded), 0.45))
+    return _mix_colour(tree, _math(tree, "MULTIPLY", dark, 0.85), rock, ROCK_DARK_ALBEDO)
+
+
 def _terrain_material() -> bpy.types.Material:
     """Ground covers by slope and height from Blender's own procedural textures: grass and dry
-    scrub in the valley (mottled by noise), bare rock on steep slopes, snow on the high, flatter
-    ground. The colour feeds the Principled BSDF's Base Color, which the add-on's OLS Terrain
-    group takes over (it keeps this network)."""
+    scrub in the valley and up the gentler slopes (mottled by noise), bare rock on steep slopes
+    and, higher up, on gentler ones too (tonal patches, strata, blocky faces, lichen-dark patches),
+    snow on the high ground but the steepest faces. The colour feeds the Principled BSDF's Base
+    Color, which the add-on's OLS Terrain group takes over (it keeps this network)."""
     mat = bpy.data.materials.get(TERRAIN_MATERIAL_NAME)
     if mat is not None:
         return mat
@@ -270,37 +399,33 @@ def _terrain_material() -> bpy.types.Material:
     bsdf.inputs["Specular IOR Level"].default_value = 0.2
 
     geometry = tree.nodes.new("ShaderNodeNewGeometry")
+    position = geometry.outputs["Position"]
     normal = tree.nodes.new("ShaderNodeSeparateXYZ")
     tree.links.new(geometry.outputs["Normal"], normal.inputs["Vector"])
-    position = tree.nodes.new("ShaderNodeSeparateXYZ")
-    tree.links.new(geometry.outputs["Position"], position.inputs["Vector"])
+    slope_cos = normal.outputs["Z"]
+    height = tree.nodes.new("ShaderNodeSeparateXYZ")
+    tree.links.new(position, height.inputs["Vector"])
+    z = height.outputs["Z"]
     # Large patches (~300 m) and fine mottling (~20 m) break up every boundary.
-    patches, mottle = (tree.nodes.new("ShaderNodeTexNoise") for _ in range(2))
-    for noise, scale, detail in ((patches, 0.003, 4.0), (mottle, 0.05, 6.0)):
-        tree.links.new(geometry.outputs["Position"], noise.inputs["Vector"])
-        noise.inputs["Scale"].default_value = scale
-        noise.inputs["Detail"].default_value = detail
-    cover = _mix_colour(tree, _map_range(tree, patches.outputs["Fac"], 0.42, 0.62), GRASS_ALBEDO, SCRUB_ALBEDO)
-    cover = _mix_colour(tree, _map_range(tree, mottle.outputs["Fac"], 0.3, 0.7), cover,
-                        tuple(0.8 * c for c in SCRUB_ALBEDO[:3]) + (1.0,))
-    jitter = tree.nodes.new("ShaderNodeMath")                 # slope threshold wanders with the noise
-    jitter.operation = "MULTIPLY_ADD"
-    tree.links.new(mottle.outputs["Fac"], jitter.inputs[0])
-    jitter.inputs[1].default_value = 0.08
-    tree.links.new(normal.outputs["Z"], jitter.inputs[2])
-    rock = _map_range(tree, jitter.outputs[0], ROCK_SLOPE_COS[0] + 0.04, ROCK_SLOPE_COS[1] + 0.04)
-    ground = _mix_colour(tree, rock, cover, ROCK_ALBEDO)
-    high = tree.nodes.new("ShaderNodeMath")
-    high.operation = "MULTIPLY_ADD"                           # a ragged snow line
-    tree.links.new(patches.outputs["Fac"], high.inputs[0])
-    high.inputs[1].default_value = 250.0
-    tree.links.new(position.outputs["Z"], high.inputs[2])
-    flat = _map_range(tree, normal.outputs["Z"], 0.72, 0.85)
-    snow = tree.nodes.new("ShaderNodeMath")
-    snow.operation = "MULTIPLY"
-    tree.links.new(_map_range(tree, high.outputs[0], SNOW_LINE_M + 125.0, SNOW_LINE_M + 225.0), snow.inputs[0])
-    tree.links.new(flat, snow.inputs[1])
-    tree.links.new(_mix_colour(tree, snow.outputs[0], ground, SNOW_ALBEDO), bsdf.inputs["Base Color"])
+    patches = _noise(tree, position, 0.003, 4.0)
+    mottle = _noise(tree, position, 0.05, 6.0)
+    cover = _mix_colour(tree, _map_range(tree, patches, 0.42, 0.62), GRASS_ALBEDO, SCRUB_ALBEDO)
+    cover = _mix_colour(tree, _map_range(tree, mottle, 0.3, 0.7), cover, _scaled(SCRUB_ALBEDO, 0.8))
+    # Grass up to ROCK_SLOPE_COS; the limit wanders with the noise and, higher up, with the height.
+    alpine = _map_range(tree, _math(tree, "MULTIPLY_ADD", patches, 200.0, z), *ALPINE_M)
+    lift = _math(tree, "MULTIPLY_ADD", alpine, 0.12, _math(tree, "MULTIPLY", mottle, -0.08))
+    rock = _map_range(tree, _math(tree, "SUBTRACT", slope_cos, lift),
+                      ROCK_SLOPE_COS[0] + 0.04, ROCK_SLOPE_COS[1] + 0.04)
+    ground = _mix_colour(tree, rock, cover, _rock_colour(tree, position))
+    # Snow above a ragged line, on all but the steepest faces (their limit ragged too).
+    high = _map_range(tree, _math(tree, "MULTIPLY_ADD", patches, 400.0, z),
+                      SNOW_LINE_M + 100.0, SNOW_LINE_M + 260.0)
+    flat = _map_range(tree, _math(tree, "MULTIPLY_ADD", mottle, 0.16, slope_cos),
+                      SNOW_SLOPE_COS[0] + 0.08, SNOW_SLOPE_COS[1] + 0.08)
+    snow = _math(tree, "MULTIPLY", high, flat)
+    snow_colour = _mix_colour(tree, _map_range(tree, _noise(tree, position, 0.01, 4.0), 0.4, 0.65),
+                              SNOW_ALBEDO, OLD_SNOW_ALBEDO)
+    tree.links.new(_mix_colour(tree, snow, ground, snow_colour), bsdf.inputs["Base Color"])
     mat.diffuse_color = ROCK_ALBEDO       # viewport solid colour
     mat.roughness = 0.9
     return mat

@@ -159,7 +159,20 @@ def test_camera_near_ground_looking_plus_y_slightly_up(sample):
     assert (world_forward.normalized() - forward).length < 1e-6
 
 
-def test_ridge_in_front_of_camera(sample):
+def _skyline(terrain, cam, azimuth_deg, max_distance):
+    """Highest elevation angle (deg) of the terrain seen from the camera toward ``azimuth_deg``
+    (from +Y toward +X), over ground points closer than ``max_distance`` inside the terrain."""
+    az = math.radians(azimuth_deg)
+    best = -90.0
+    for d in np.arange(50.0, max_distance, 20.0):
+        x, y = cam.location.x + d * math.sin(az), cam.location.y + d * math.cos(az)
+        if abs(x) > 3000 or abs(y) > 3000:
+            break
+        best = max(best, math.degrees(math.atan2(bs.terrain_height_at(terrain, x, y) - cam.location.z, d)))
+    return best
+
+
+def test_ridges_in_front_of_camera(sample):
     cam, terrain = sample["camera"], sample["terrain"]
     v = _vertices(terrain)
     forward = bs.camera_forward(cam)
@@ -172,21 +185,53 @@ def test_ridge_in_front_of_camera(sample):
     half_fov = math.atan(0.5 * cam.data.sensor_width / cam.data.lens)
     in_view = (along > 0) & (np.abs(across) < along * math.tan(half_fov))
     ground = bs.terrain_height_at(terrain, cam.location.x, cam.location.y)
-    band = in_view & (along >= 2000) & (along <= 5000)
-    near = in_view & (along < 1500)
-    assert band.sum() > 1000
-    assert v[band, 2].max() - ground > 300.0
-    assert v[band, 2].max() > 600.0                     # peaks of ~600-1200 m
-    assert v[near, 2].max() - ground < 200.0             # a gentle valley near the camera
+    near = in_view & (along < 800)
+    assert v[near, 2].max() - ground < 100.0             # a gentle valley near the camera
+    # Three ridges at increasing distance, each higher than the one in front of it: foothills
+    # ~1.4 km, a middle ridge ~2.9 km, the main range (peaks ~600-1200 m) ~4.5 km away.
+    bands = [(1000, 1900), (2300, 3500), (3900, 5700)]
+    peaks = []
+    for lo, hi in bands:
+        band = in_view & (along >= lo) & (along <= hi)
+        assert band.sum() > 1000
+        peaks.append(np.percentile(v[band, 2], 99) - ground)
+    print("\nridge heights (99th percentile above the camera's ground):", np.round(peaks).tolist())
+    assert 50.0 < peaks[0] < peaks[1] < peaks[2]
+    assert v[in_view & (along >= 3900), 2].max() > 600.0
+    # Layers: across the view, each farther ridge shows above the nearer ones in most columns.
+    columns = np.linspace(-0.95, 0.95, 21) * math.degrees(half_fov)
+    skylines = np.array([[_skyline(terrain, cam, az, limit) for limit in (1900, 3500, 8000)]
+                         for az in columns])
+    print("skyline elevations (deg) up to 1.9 km, 3.5 km, all:", np.round(skylines, 1).tolist())
+    assert np.mean(skylines[:, 1] > skylines[:, 0] + 1.0) >= 0.8
+    assert np.mean(skylines[:, 2] > skylines[:, 1] + 1.0) >= 0.5
     # The middle of the view hits the mountains, not the sky, and above the camera.
     depsgraph = bpy.context.evaluated_depsgraph_get()
     hit, location, _normal, _index, obj, _m = sample["scene"].ray_cast(
         depsgraph, cam.location, forward, distance=1.0e5)
     assert hit and obj.name == "OLS Terrain"
     distance = (location - cam.location).length
-    print(f"\nview centre hits the terrain {distance:.0f} m away at z = {location.z:.0f} m")
+    print(f"view centre hits the terrain {distance:.0f} m away at z = {location.z:.0f} m")
     assert 1500.0 < distance < 6000.0
     assert location.z > cam.location.z
+
+
+def test_pass_lets_a_low_sun_through(sample):
+    """A pass through every ridge toward the `sunset` look's sun (1.5 deg up, azimuth
+    GAP_AZIMUTH_DEG): the sun's rays reach the valley along it, while the ridges on either side
+    shadow it, so the light-shaft pass has shafts to draw."""
+    cam, terrain = sample["camera"], sample["terrain"]
+    az = bs.GAP_AZIMUTH_DEG
+    slope = math.tan(math.radians(1.5))
+    for d in np.arange(0.0, 9000.0, 20.0):
+        x, y = cam.location.x + d * math.sin(math.radians(az)), cam.location.y + d * math.cos(math.radians(az))
+        if abs(x) > 3000 or abs(y) > 3000:
+            break
+        assert bs.terrain_height_at(terrain, x, y) < cam.location.z + d * slope - 10.0, d
+    in_pass = _skyline(terrain, cam, az, 8000)
+    flanks = [_skyline(terrain, cam, az + offset, 8000) for offset in (-12.0, -8.0, 8.0, 12.0)]
+    print(f"\nskyline in the pass {in_pass:.1f} deg, beside it", np.round(flanks, 1).tolist())
+    assert in_pass < 1.0 and min(flanks) > 4.0
 
 
 def test_scene_settings(sample):
