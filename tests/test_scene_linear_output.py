@@ -90,13 +90,18 @@ def test_blender_view_transform_operator(addon_package, wired, tmp_path):
     assert np.abs(ours - plain).max() <= 1e-3
     assert 0.05 < ours.mean() < 0.95
     # Auto exposure still sets the exposure: middle gray over the frame's log-average luminance.
+    # A middle gray far from the frame's own average, so that the exposure cannot be ~1 by chance
+    # of the scene.
     scene.ols.auto_exposure = True
+    scene.ols.middle_gray = 0.05
     scene.ols.tone_map_exr = True
     exposed = render_rgb(scene, tmp_path / "exposed.exr", composite=True)
     scene.ols.tone_map_exr = False
     scene.render.image_settings.media_type = "IMAGE"
     linear = render_rgb(scene, tmp_path / "linear.exr", composite=True)
-    want = twin.tone_map(linear, "BLENDER_VIEW", average_luminance=twin.log_average_luminance(linear))
+    average = twin.log_average_luminance(linear)
+    assert abs(0.05 / average - 1.0) > 0.2, average
+    want = twin.tone_map(linear, "BLENDER_VIEW", middle_gray=0.05, average_luminance=average)
     np.testing.assert_allclose(exposed, want, rtol=2e-3, atol=1e-6)
     assert not np.allclose(exposed, linear, rtol=0.05)
     # A view transform the user picks meanwhile stays; the sample's operators set Standard again
