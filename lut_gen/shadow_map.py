@@ -123,12 +123,17 @@ def cascade_footprints(camera: Camera, frame: np.ndarray, splits: np.ndarray, re
     return np.array(centers), np.array(halves)
 
 
-def rasterize_max_depth(triangles_light: np.ndarray, center, half, resolution: int) -> np.ndarray:
+def rasterize_max_depth(triangles_light: np.ndarray, center, half, resolution: int, out=None) -> np.ndarray:
     """(res, res) float32: the largest sun depth of ``triangles_light`` (M, 3, 3: x, y, d per
-    vertex) over each texel centre of the rectangle center +- half; EMPTY_DEPTH where none."""
+    vertex) over each texel centre of the rectangle center +- half; EMPTY_DEPTH where none.
+    ``out``: a C-contiguous (res, res) float32 array to rasterise into (a cascade of a stack
+    allocated once: at 4096 texels each cascade is 64 MiB)."""
     if resolution < 1:
         raise ValueError(f"the shadow map resolution must be at least 1 texel, got {resolution}")
-    depth = np.full(resolution * resolution, EMPTY_DEPTH, dtype=np.float32)
+    if out is None:
+        out = np.empty((resolution, resolution), dtype=np.float32)
+    depth = out.reshape(-1)                 # a view: the scan writes into ``out``
+    depth.fill(EMPTY_DEPTH)
     tri = np.asarray(triangles_light, dtype=np.float64)
     if tri.size == 0:
         return depth.reshape(resolution, resolution)
@@ -220,8 +225,9 @@ def render_cascades(triangles_world, camera: Camera, sun_direction, resolution: 
     xy = triangles_light[..., :2]
     low = np.minimum(np.minimum(xy[:, 0], xy[:, 1]), xy[:, 2])       # light-space boxes, once
     high = np.maximum(np.maximum(xy[:, 0], xy[:, 1]), xy[:, 2])
-    depths = np.stack([rasterize_max_depth(_overlapping(triangles_light, low, high, c, h), c, h, resolution)
-                       for c, h in zip(centers, halves)])
+    depths = np.empty((len(centers), resolution, resolution), dtype=np.float32)
+    for depth, c, h in zip(depths, centers, halves):
+        rasterize_max_depth(_overlapping(triangles_light, low, high, c, h), c, h, resolution, out=depth)
     return ShadowCascades(frame, centers, halves, splits[1:], depths)
 
 
@@ -299,12 +305,25 @@ PARAM_ROWS = ("center_far", "half_bias", "channel_mask", "block", "color")
 def pack_atlas(cascades: ShadowCascades) -> np.ndarray:
     """(res, blocks * res, 4) float32 RGBA atlas of the cascades' depth maps."""
     res, count = cascades.resolution, cascades.count
+    return _atlas(res, count, lambda i: cascades.depths[i])
+
+
+def empty_atlas(resolution: int, count: int) -> np.ndarray:
+    """pack_atlas of ``count`` cascades that no geometry covers (all lit)."""
+    return _atlas(resolution, count, lambda i: EMPTY_DEPTH)
+
+
+def _atlas(res: int, count: int, depth_of) -> np.ndarray:
     blocks = -(-count // CASCADES_PER_BLOCK)
+    # np.full and then the channels: faster than np.empty and each texel once (the strided
+    # writes would take the page faults of up to 805 MB at 4096 texels).
     atlas = np.full((res, blocks * res, 4), EMPTY_DEPTH, dtype=np.float32)
     atlas[..., 3] = 1.0
-    for i, depth in enumerate(cascades.depths):
+    for i in range(count):
         block, channel = divmod(i, CASCADES_PER_BLOCK)
-        atlas[:, block * res:(block + 1) * res, channel] = depth
+        depth = depth_of(i)
+        if not np.isscalar(depth) or depth != EMPTY_DEPTH:
+            atlas[:, block * res:(block + 1) * res, channel] = depth
     return atlas
 
 
