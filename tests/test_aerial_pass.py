@@ -109,3 +109,43 @@ def test_setup_wires_aerial_perspective_and_its_controls(addon_package, tmp_path
     terrain = slice(14, 27)                                # lower half of the frame: the valley
     assert np.abs(on - off)[terrain].mean() > 1e-3         # the air between camera and terrain shows
     assert only[terrain].mean() < on[terrain].mean()       # air light alone is dimmer than the scene
+
+
+def test_segment_transmittance_just_below_the_horizon_matches_twin(addon_package, tmp_path, monkeypatch):
+    """Ground-bound segments whose end sits near its own horizon: there the forward table entry
+    is a filtered blend of the 1e20 "hits the Earth" marker, and mixing it in float32 (a lerp)
+    wiped out the reversed difference, giving transmittance 1 (the near ground 7-10% too
+    bright in every render of the sample, a band just below the horizon)."""
+    from render_util import empty_scene
+    monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "cache"))
+    pkg = addon_package
+    scene = empty_scene(width=4, height=2, samples=1)
+    scene.view_layers[0].use_pass_z = True
+    camera_data = bpy.data.cameras.new("probe")
+    scene.camera = bpy.data.objects.new("probe", camera_data)
+    scene.collection.objects.link(scene.camera)
+    directory = import_module(pkg.__name__ + ".addon.ops").bake_if_needed(pkg.lut_gen.AtmosphereParams(), "draft")
+    luts = pkg.lut_gen.load(directory)
+    image = import_module(pkg.__name__ + ".addon.scene.luts").load_images(directory)["optical_depth"]
+    builder = import_module(pkg.__name__ + ".addon.nodes.builder")
+    optical = import_module(pkg.__name__ + ".addon.nodes.optical")
+    start = np.array([0.0, -2700.0, 51.0])
+    for cos_view, length in ((-0.032, 760.0), (-0.024, 900.0), (-0.0125, 1030.0), (-0.0047, 1050.0), (0.007, 1080.0)):
+        direction = np.array([0.0, np.sqrt(1.0 - cos_view ** 2), cos_view])
+        end = start + direction * length
+        tree = builder.new_group("OLS Test Probe", "CompositorNodeTree")
+        g, gin, gout = builder.group_io(tree, [("Image", "NodeSocketColor", (0.0, 0.0, 0.0, 1.0))],
+                                        [("Out", "NodeSocketVector", None)])
+        g.links.new(optical.segment_transmittance(g, image, tuple(start), tuple(end), tuple(direction), luts.params),
+                    gout.inputs["Out"])
+
+        def probe(t, layers):
+            node = t.nodes.new("CompositorNodeGroup")
+            node.node_tree = tree
+            t.links.new(layers.outputs["Image"], node.inputs["Image"])
+            return node.outputs["Out"]
+        compositor_output(scene, probe)
+        seen = render_rgb(scene, tmp_path / "probe.exr", composite=True)[0, 0]
+        twin = pkg.lut_gen.aerial.segment_transmittance(luts, start, end)
+        assert twin.max() < 0.97                                  # a kilometre of air near the ground
+        np.testing.assert_allclose(seen, twin, rtol=2e-4, err_msg=f"cos {cos_view}")

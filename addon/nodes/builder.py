@@ -68,6 +68,11 @@ class Graph:
         """a + (b - a) t for scalars."""
         return self.mul_add(self.sub(b, a), t, a)
 
+    def select(self, a, b, flag):
+        """a where ``flag`` is 0, b where it is 1, exactly: a (1 - flag) + b flag. Not lerp when a
+        may be huge: in float32 (b - a) + a loses b entirely (a = 1e18: b = 900 comes out 0)."""
+        return self.mul_add(b, flag, self.mul(a, self.sub(1.0, flag)))
+
     # -- vectors and colours ---------------------------------------------------
     def vmath(self, operation: str, a, b=None, c=None):
         node = self.node("ShaderNodeVectorMath", operation=operation)

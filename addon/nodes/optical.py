@@ -146,7 +146,9 @@ def segment_transmittance(g, image, start, end, direction, params):
     backward_e = net_density_to_top(g, image, h_e, cos_back_e, params)
     backward_s = net_density_to_top(g, image, h_s, g.vmath("DOT_PRODUCT", reverse, up_s), params)
     hits = g.math("MAXIMUM", below_horizon(g, h_s, cos_s, params), below_horizon(g, h_e, cos_e, params))
-    table = [g.lerp(g.sub(fs, fe), g.sub(be, bs), hits)
+    # A select, not a lerp: near the end's horizon its forward entry is a filtered blend of the
+    # 1e20 marker (1e18-1e20), and fs - fe then swamps the reversed difference in float32.
+    table = [g.select(g.sub(fs, fe), g.sub(be, bs), hits)
              for fs, fe, be, bs in zip(forward_s, forward_e, backward_e, backward_s)]
     horizon = g.lerp(g.sub(cos_s, horizon_cos(g, h_s, params)), g.sub(cos_back_e, horizon_cos(g, h_e, params)), hits)
     low, high = aerial_twin.QUADRATURE_BAND
