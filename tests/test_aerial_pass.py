@@ -77,7 +77,11 @@ def test_aerial_perspective_pass_matches_twin(addon_package, tmp_path, monkeypat
     twin = pkg.lut_gen.aerial.aerial_perspective(luts, camera, position[geometry], raw[geometry], sun,
                                                  sun_strength=10.0, scattering_scale=0.5)
     err = np.abs(seen[geometry] - twin) / np.maximum(twin, 1e-6)
-    assert np.median(err) <= 0.03
+    print("aerial pass vs twin: median", np.median(err), "p99", np.percentile(err, 99), "max", err.max())
+    # Measured: median 4e-7, p99 4e-5 (same tables, float32 against float64). A 3% median let
+    # the transmittance bug below the horizon through (median 1.5%, p99 11%).
+    assert np.median(err) <= 1e-4
+    assert np.percentile(err, 99) <= 1e-3
     np.testing.assert_array_equal(seen[~geometry], raw[~geometry])      # the sky passes through
     far = geometry & (depth > np.percentile(depth[geometry], 75))
     assert (seen[far] - raw[far]).mean() > 0                             # distant terrain gains air light
