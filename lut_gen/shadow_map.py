@@ -305,25 +305,12 @@ PARAM_ROWS = ("center_far", "half_bias", "channel_mask", "block", "color")
 def pack_atlas(cascades: ShadowCascades) -> np.ndarray:
     """(res, blocks * res, 4) float32 RGBA atlas of the cascades' depth maps."""
     res, count = cascades.resolution, cascades.count
-    return _atlas(res, count, lambda i: cascades.depths[i])
-
-
-def empty_atlas(resolution: int, count: int) -> np.ndarray:
-    """pack_atlas of ``count`` cascades that no geometry covers (all lit)."""
-    return _atlas(resolution, count, lambda i: EMPTY_DEPTH)
-
-
-def _atlas(res: int, count: int, depth_of) -> np.ndarray:
     blocks = -(-count // CASCADES_PER_BLOCK)
-    # np.full and then the channels: faster than np.empty and each texel once (the strided
-    # writes would take the page faults of up to 805 MB at 4096 texels).
     atlas = np.full((res, blocks * res, 4), EMPTY_DEPTH, dtype=np.float32)
     atlas[..., 3] = 1.0
-    for i in range(count):
+    for i, depth in enumerate(cascades.depths):
         block, channel = divmod(i, CASCADES_PER_BLOCK)
-        depth = depth_of(i)
-        if not np.isscalar(depth) or depth != EMPTY_DEPTH:
-            atlas[:, block * res:(block + 1) * res, channel] = depth
+        atlas[:, block * res:(block + 1) * res, channel] = depth
     return atlas
 
 

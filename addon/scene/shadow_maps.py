@@ -104,11 +104,11 @@ def render(scene, depsgraph) -> shadow_map.ShadowCascades:
                                       settings.num_cascades, settings.cascade_partitioning_factor, near, far)
 
 
-def write_images(cascades: shadow_map.ShadowCascades, atlas=None):
-    """The packed atlas (``atlas`` when given) and parameter table into the two images
-    (created or resized)."""
-    luts.write_data_image(ATLAS_IMAGE, shadow_map.pack_atlas(cascades) if atlas is None else atlas)
-    luts.write_data_image(PARAMETER_IMAGE, shadow_map.pack_parameters(cascades))
+def write_images(cascades: shadow_map.ShadowCascades):
+    """The packed atlas and parameter table into the two images (created or resized)."""
+    for name, pixels in ((ATLAS_IMAGE, shadow_map.pack_atlas(cascades)),
+                         (PARAMETER_IMAGE, shadow_map.pack_parameters(cascades))):
+        luts.write_data_image(name, pixels)
 
 
 def ensure_images(resolution: int, count: int):
@@ -121,8 +121,7 @@ def ensure_images(resolution: int, count: int):
             or tuple(params.size) != (count + 1, len(shadow_map.PARAM_ROWS))):
         empty = np.broadcast_to(np.float32(shadow_map.EMPTY_DEPTH), (count, resolution, resolution))   # no copy
         write_images(shadow_map.ShadowCascades(np.eye(3), np.zeros((count, 2)), np.ones((count, 2)),
-                                               np.ones(count), empty),
-                     atlas=shadow_map.empty_atlas(resolution, count))
+                                               np.ones(count), empty))
     return bpy.data.images[ATLAS_IMAGE], bpy.data.images[PARAMETER_IMAGE]
 
 
