@@ -18,7 +18,7 @@ pytestmark = pytest.mark.bpy
 # most of it Blender's own re-render of the 130 000-triangle sample after a scene change
 # (0.6-1.0 s, against 0.3 s for an unchanged scene); with the shafts on ~3 s (a rebuild of the
 # light-shaft groups when modes, cascades, PCF or the technique change, ~1 s; shadow maps
-# 0.5 s; epipolar tables 1.4 s); a 4096-texel shadow map 10-19 s. 200 take ~10 minutes, so CI
+# 0.5 s; epipolar tables 1.4 s); a 4096-texel shadow map 10-19 s. 200 took 795 s, so CI
 # runs 24; OLS_FUZZ_COMBINATIONS=200 runs the whole set.
 FUZZ_COMBINATIONS = int(os.environ.get("OLS_FUZZ_COMBINATIONS", "24"))
 WIDTH, HEIGHT = 64, 36
