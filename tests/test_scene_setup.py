@@ -106,6 +106,9 @@ def test_setup_scene_on_the_sample(addon, tmp_path):
     wiring = module(addon, "addon.scene.wiring")
     assert scene.world.name == wiring.WORLD_NAME and scene[wiring.PREVIOUS_WORLD] == previous_world.name
     assert objects["terrain"].active_material.name.startswith(wiring.TERRAIN_MATERIAL)
+    # Its emission (the ambient term) is no lamp: sampled as one, each change cost a re-render
+    # 0.5 s more on this terrain (bench/bench_rerender.py).
+    assert objects["terrain"].active_material.cycles.emission_sampling == "NONE"
     drivers = scene.world.node_tree.animation_data.drivers
     assert len(drivers) == 7 and all(d.driver.is_valid for d in drivers)
     colour = np.array(objects["sun"].data.color)
