@@ -192,13 +192,19 @@ def _scan(depth, resolution, planes, depth_plane, d0, lo_x, lo_y, width, height)
     tri, oy, x_lo, span = tri[keep], oy[keep], x_lo[keep], span[keep]
     if len(span) == 0:
         return
-    which = np.repeat(np.arange(len(span)), span)
-    ox = x_lo[which] + (np.arange(len(which)) - np.repeat(np.cumsum(span) - span, span))
-    t = tri[which]
-    y = oy[which]
-    value = (d0[t] + depth_plane[t, 0] * ox + depth_plane[t, 1] * y + depth_plane[t, 2]).astype(np.float32)
-    flat = (lo_y[t] + y.astype(np.int64)) * resolution + lo_x[t] + ox
-    np.maximum.at(depth, flat, value)
+    # Per texel only two repeats and a multiply-add: the covered texel i of the batch (counting
+    # across spans) sits at flat index (span start - its first i) + i, and its depth is linear in
+    # i along the span. Expanding per-texel triangle and row indices first and gathering from
+    # them took three times as long at 4096 texels (84 M texels for the sample).
+    first = np.cumsum(span) - span
+    row = lo_y[tri] + oy.astype(np.int64)
+    column = lo_x[tri] + x_lo
+    step = depth_plane[tri, 0]
+    start = d0[tri] + step * x_lo + depth_plane[tri, 1] * oy + depth_plane[tri, 2]
+    i = np.arange(int(first[-1] + span[-1]), dtype=np.int64)
+    flat = np.repeat(row * resolution + column - first, span) + i
+    value = np.repeat(start - step * first, span) + np.repeat(step, span) * i
+    np.maximum.at(depth, flat, value.astype(np.float32))
 
 
 def _barycentric_planes(px, py, area):
@@ -302,15 +308,20 @@ CASCADES_PER_BLOCK = 3
 PARAM_ROWS = ("center_far", "half_bias", "channel_mask", "block", "color")
 
 
-def pack_atlas(cascades: ShadowCascades) -> np.ndarray:
-    """(res, blocks * res, 4) float32 RGBA atlas of the cascades' depth maps."""
+def pack_atlas(cascades: ShadowCascades, out=None) -> np.ndarray:
+    """(res, blocks * res, 4) float32 RGBA atlas of the cascades' depth maps. ``out``: an array
+    of that shape to pack into, e.g. the previous frame's: at 4096 texels the atlas is 512 MiB,
+    and touching fresh memory of that size cost more than a second inside Blender."""
     res, count = cascades.resolution, cascades.count
     blocks = -(-count // CASCADES_PER_BLOCK)
-    atlas = np.full((res, blocks * res, 4), EMPTY_DEPTH, dtype=np.float32)
-    atlas[..., 3] = 1.0
-    for i, depth in enumerate(cascades.depths):
-        block, channel = divmod(i, CASCADES_PER_BLOCK)
-        atlas[:, block * res:(block + 1) * res, channel] = depth
+    shape = (res, blocks * res, 4)
+    atlas = out if out is not None and out.shape == shape and out.dtype == np.float32 else np.empty(shape, np.float32)
+    for block in range(blocks):
+        columns = slice(block * res, (block + 1) * res)
+        for channel in range(CASCADES_PER_BLOCK):
+            i = block * CASCADES_PER_BLOCK + channel
+            atlas[:, columns, channel] = cascades.depths[i] if i < count else EMPTY_DEPTH
+        atlas[:, columns, 3] = 1.0
     return atlas
 
 

@@ -143,3 +143,24 @@ def test_render_cascades_rejects_bad_input():
         sm.render_cascades(tris, camera, (0, 0, 0), 64, 2, 0.5, 1.0, 100.0)
     with pytest.raises(ValueError, match="near < far"):
         sm.render_cascades(tris, camera, (0, 0, 1), 64, 2, 0.5, 100.0, 100.0)
+
+
+def test_pack_atlas_into_last_frames_buffer_equals_a_fresh_pack():
+    """The add-on packs each frame into the previous frame's atlas: nothing of that frame may
+    survive (here 4 cascades: block 1 holds one, its G and B channels stay empty)."""
+    rng = np.random.default_rng(3)
+
+    def cascades(count, res=8):
+        depths = rng.uniform(-50.0, 50.0, (count, res, res)).astype(np.float32)
+        return sm.ShadowCascades(np.eye(3), np.zeros((count, 2)), np.ones((count, 2)), np.ones(count), depths)
+
+    first, second = cascades(6), cascades(4)
+    buffer = sm.pack_atlas(first)
+    reused = sm.pack_atlas(second, out=buffer)
+    assert reused is buffer
+    fresh = sm.pack_atlas(second)
+    np.testing.assert_array_equal(reused, fresh)
+    assert np.all(fresh[:, 8:, 1:3] == sm.EMPTY_DEPTH) and np.all(fresh[..., 3] == 1.0)
+    np.testing.assert_array_equal(fresh[:, 8:, 0], second.depths[3])
+    np.testing.assert_array_equal(fresh[:, :8, 2], second.depths[2])
+    assert sm.pack_atlas(cascades(4, res=16), out=buffer) is not buffer     # another size: a new array

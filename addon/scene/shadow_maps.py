@@ -104,11 +104,22 @@ def render(scene, depsgraph) -> shadow_map.ShadowCascades:
                                       settings.num_cascades, settings.cascade_partitioning_factor, near, far)
 
 
+# The last packed atlas, packed into again next frame (see pack_atlas): as large as the atlas
+# image (32 MiB at the default 6 x 1024, 512 MiB at 6 x 4096), dropped with the images.
+_atlas_buffer = {}
+
+
 def write_images(cascades: shadow_map.ShadowCascades):
     """The packed atlas and parameter table into the two images (created or resized)."""
-    for name, pixels in ((ATLAS_IMAGE, shadow_map.pack_atlas(cascades)),
-                         (PARAMETER_IMAGE, shadow_map.pack_parameters(cascades))):
+    atlas = shadow_map.pack_atlas(cascades, out=_atlas_buffer.pop("atlas", None))
+    _atlas_buffer["atlas"] = atlas
+    for name, pixels in ((ATLAS_IMAGE, atlas), (PARAMETER_IMAGE, shadow_map.pack_parameters(cascades))):
         luts.write_data_image(name, pixels)
+
+
+def release_buffer():
+    """Free the atlas kept for the next frame (the shafts are off, or the scene is unwired)."""
+    _atlas_buffer.clear()
 
 
 def ensure_images(resolution: int, count: int):
@@ -155,6 +166,7 @@ def images_intact(shadow_test_group) -> bool:
 
 def remove_images(*extra_names):
     """Drop the shadow-map images (and ``extra_names``) when the scene is unwired."""
+    release_buffer()
     for name in (ATLAS_IMAGE, PARAMETER_IMAGE) + extra_names:
         image = bpy.data.images.get(name)
         if image is not None:

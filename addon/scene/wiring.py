@@ -78,6 +78,7 @@ def match_light_shaft_layout(scene) -> bool:
         return False
     settings = props.Sanitized(scene.ols)
     if not (settings.enable_light_scattering and settings.enable_light_shafts):
+        shadow_maps.release_buffer()
         return False
     layout = nodes.ShaftLayout.from_settings(settings, epipolar_tables.technique(settings))
     if (group.get("ols_layout") == layout.as_key()
