@@ -41,19 +41,20 @@ def ground_point(params, height_m, cos_view, cos_sun, cos_sun_view):
     return d, np.clip(cos_sun_at, -1.0, 1.0), np.clip(cos_back, 0.0, 1.0)
 
 
-def net_density_to_ground(params, optical_depth, height_m, cos_view, cos_back):
+def net_density_to_ground(params, optical_depth, height_m, cos_view, cos_back, packed=None):
     """(..., 3) net densities from the viewer to the ground point: both upward rays read from
-    the optical-depth table, the one from the ground minus the one from the viewer."""
-    from_ground = table_net_density(params, optical_depth, 0.0, cos_back)
-    from_viewer = table_net_density(params, optical_depth, height_m, -np.asarray(cos_view, dtype=np.float64))
+    the optical-depth table, the one from the ground minus the one from the viewer. ``packed``:
+    interpolation.packed_rows(optical_depth), when the caller keeps it."""
+    from_ground = table_net_density(params, optical_depth, 0.0, cos_back, packed)
+    from_viewer = table_net_density(params, optical_depth, height_m, -np.asarray(cos_view, dtype=np.float64), packed)
     return np.maximum(from_ground - from_viewer, 0.0)
 
 
-def direct_irradiance(params, optical_depth, extinction, cos_sun) -> np.ndarray:
+def direct_irradiance(params, optical_depth, extinction, cos_sun, packed=None) -> np.ndarray:
     """(..., C) sun irradiance on the ground per unit extraterrestrial sun, for the channels of
-    ``extinction`` (3 media x C)."""
+    ``extinction`` (3 media x C); ``packed`` as for net_density_to_ground."""
     c = np.asarray(cos_sun, dtype=np.float64)
-    net = table_net_density(params, optical_depth, 0.0, np.maximum(c, 0.0))
+    net = table_net_density(params, optical_depth, 0.0, np.maximum(c, 0.0), packed)
     return np.exp(-np.minimum(net @ extinction, 80.0)) * np.maximum(c, 0.0)[..., None]
 
 

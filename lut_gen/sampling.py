@@ -79,6 +79,15 @@ def table_net_density(params: AtmosphereParams, optical_depth: np.ndarray, heigh
     return net * below_first_row_factors(params, height, n_h)
 
 
+def with_phases(params: AtmosphereParams, stored: np.ndarray, mie: Optional[np.ndarray], cos_sun_view) -> np.ndarray:
+    """(..., 3) float32 stored * P_R + mie * P_M from the interpolated "stored" table (divided by
+    the Rayleigh phase) and single Mie table (no phase; None for tables without a Mie part)."""
+    radiance = stored * rayleigh_phase(cos_sun_view)[..., None].astype(np.float32)
+    if mie is not None:
+        radiance += mie * mie_phase(cos_sun_view, params.mie_g)[..., None].astype(np.float32)
+    return radiance
+
+
 @dataclass
 class Luts:
     """Tables of one bake.
@@ -160,11 +169,9 @@ class Luts:
         radiance = interpolate(self.table(table), coords, geometric_axes=GEOMETRIC_AXES,
                                packed=self._packed_table(table))
         if not phase_free:
-            radiance = radiance * rayleigh_phase(cos_sun_view)[..., None].astype(np.float32)
-            if table in TABLES_WITH_MIE:
-                phase = mie_phase(cos_sun_view, self.params.mie_g)[..., None].astype(np.float32)
-                radiance += interpolate(self.single_mie, coords, geometric_axes=GEOMETRIC_AXES,
-                                        packed=self._packed_table("single_mie")) * phase
+            mie = (interpolate(self.single_mie, coords, geometric_axes=GEOMETRIC_AXES,
+                               packed=self._packed_table("single_mie")) if table in TABLES_WITH_MIE else None)
+            radiance = with_phases(self.params, radiance, mie, cos_sun_view)
         scale = par.look_up_scale(self.params, height_m, cos_view_zenith, above)
         return radiance * scale[..., None].astype(np.float32)
 
@@ -191,9 +198,11 @@ class Luts:
         cos_sun_view = par.clamp_sun_view(cos_view_zenith, cos_sun_zenith, cos_sun_view)
         _, cos_sun_at, cos_back = ground.ground_point(params, height_m, cos_view_zenith, cos_sun_zenith, cos_sun_view)
         extinction = params.extinction_matrix()
-        net = ground.net_density_to_ground(params, self.optical_depth, height_m, cos_view_zenith, cos_back)
+        packed = self._packed_table("optical_depth")
+        net = ground.net_density_to_ground(params, self.optical_depth, height_m, cos_view_zenith, cos_back, packed)
         view = np.exp(-np.minimum(net @ extinction, 80.0))
-        lit = ground.direct_irradiance(params, self.optical_depth, extinction, cos_sun_at) + self.ambient_skylight(cos_sun_at)
+        lit = (ground.direct_irradiance(params, self.optical_depth, extinction, cos_sun_at, packed)
+               + self.ambient_skylight(cos_sun_at))
         hits = ground.hits_ground(params, height_m, cos_view_zenith)
         return np.where(hits[..., None], view * lit * (params.ground_albedo / np.pi), 0.0).astype(np.float32)
 

@@ -5,16 +5,15 @@ Non-camera rays of the OLS Sky world read these images instead of the 4D look-up
 term (see nodes/sky.py): two texture fetches. They hold sky radiance and ground radiance per
 unit sun (lut_gen's numpy look-ups, the node groups' twins), apart because the sky is scaled by
 the scattering scale and the ground is not, for the current sun direction and camera height, so
-they are recomputed when either changes (scene handlers) and after a re-bake. Pixel (i, j) of a W x H image (rows bottom to
-top) looks at azimuth ((i + 0.5) / W - 0.5) 2 pi from +Y toward +X and elevation
-((j + 0.5) / H - 0.5) pi.
+they are recomputed when either changes (scene handlers) and after a re-bake, by
+lut_gen.panorama (its docstring has the pixel layout).
 """
 from __future__ import annotations
 
 import bpy
 import numpy as np
 
-from ...lut_gen import atlas
+from ...lut_gen import atlas, panorama
 from ...lut_gen.sampling import Luts
 
 IMAGE_NAME = "OLS Sky Light"
@@ -25,23 +24,6 @@ HEIGHT_TOLERANCE_M = 1.0
 
 _tables = {}                # bake key -> Luts holding the tables read back from their images
 _state = {}                 # image name -> (key, sun direction, height) it was computed for
-
-
-def panorama_directions(width: int, height: int) -> np.ndarray:
-    azimuth = ((np.arange(width) + 0.5) / width - 0.5) * 2 * np.pi
-    elevation = ((np.arange(height) + 0.5) / height - 0.5) * np.pi
-    elevation, azimuth = np.meshgrid(elevation, azimuth, indexing="ij")
-    return np.stack([np.sin(azimuth) * np.cos(elevation), np.cos(azimuth) * np.cos(elevation),
-                     np.sin(elevation)], axis=-1)
-
-
-def panoramas(luts: Luts, sun_direction, camera_height: float, size=SIZE):
-    """(sky, ground): (H, W, 3) sky radiance and lit-ground radiance (0 above the horizon) per
-    unit sun, rows bottom to top, for the same view directions."""
-    d = panorama_directions(*size)
-    sun = np.asarray(sun_direction, dtype=np.float64)
-    view = (max(camera_height, 0.0), d[..., 2], sun[2], d @ sun)
-    return luts.sky_radiance(*view), luts.ground_radiance(*view)
 
 
 def ensure_image(name=IMAGE_NAME):
@@ -69,7 +51,9 @@ def _pixels(image) -> np.ndarray:
 
 def _luts_from_images(key: str, images, params, dims) -> Luts:
     """Luts holding the tables the panoramas need, read back from their images: the multiple
-    and single Mie atlases, the optical depth (stored height along x) and the ambient skylight."""
+    and single Mie atlases, the optical depth (stored height along x) and the ambient skylight.
+    Kept packed: the ground look-ups otherwise copied the optical-depth table three times a
+    sun move (10 ms each)."""
     if key not in _tables:
         multiple_image, mie_image, optical_image, ambient_image = images
         table = atlas.unpack(_pixels(multiple_image), dims)
@@ -77,7 +61,7 @@ def _luts_from_images(key: str, images, params, dims) -> Luts:
         _tables[key] = Luts(params, single=table, higher=np.zeros_like(table),
                             optical_depth=np.ascontiguousarray(_pixels(optical_image).transpose(1, 0, 2)),
                             ambient=np.ascontiguousarray(_pixels(ambient_image)[0]), multiple=table,
-                            single_mie=atlas.unpack(_pixels(mie_image), dims))
+                            single_mie=atlas.unpack(_pixels(mie_image), dims)).keep_packed()
     return _tables[key]
 
 
@@ -98,7 +82,7 @@ def update(key: str, images, params, dims, sun_direction, camera_height: float, 
             and np.abs(previous[1] - sun).max() < SUN_TOLERANCE and abs(previous[2] - camera_height) < HEIGHT_TOLERANCE_M):
         return False
     luts = _luts_from_images(key, images, params, dims)
-    sky, ground = panoramas(luts, sun, camera_height)
+    sky, ground = panorama.panoramas(luts, sun, camera_height, SIZE)
     _write(image, sky)
     _write(ground_image, ground)
     _state[image.name] = (key, sun, camera_height)
