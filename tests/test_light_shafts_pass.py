@@ -92,20 +92,24 @@ def test_every_scattering_mode_matches_the_twin_and_shafts_show(addon_package, t
     geometry = depth < 1e9
     assert 0.2 < geometry.mean() < 0.9                        # terrain and sky in view
     twin = Twin(addon_package, scene, passes)
-    errors = {}
+    errors, tails = {}, {}
     for single, multiple in MODES:
         scene.ols.single_scattering_mode, scene.ols.multiple_scattering_mode = single, multiple
         seen = render_rgb(scene, tmp_path / f"{single}_{multiple}.exr", composite=True)[::-1]
         expected = twin()
         assert np.isfinite(seen).all()
-        errors[single, multiple] = float(np.median(relative_error(seen, expected)))
+        error = relative_error(seen, expected)
+        errors[single, multiple] = float(np.median(error))
+        tails[single, multiple] = float(np.percentile(error, 99))
         if (single, multiple) == ("LUT", "UNOCCLUDED"):
             save_png(tmp_path / "shafts.png", seen[::-1], 1.0)
             save_png(tmp_path / "unshadowed.png", twin(enable_light_shafts=False)[::-1], 1.0)
             unshadowed = twin(enable_light_shafts=False)
             shadow_effect = unshadowed - expected
-    print(technique, "median relative error per mode:", errors)
-    assert max(errors.values()) <= 0.03, errors
+    print(technique, "median relative error per mode:", errors, "p99:", tails)
+    # Measured: medians 0.5-3e-6, p99 1.4e-5 to 1.1e-4 (float32 against float64).
+    assert max(errors.values()) <= 1e-4, errors
+    assert max(tails.values()) <= 1e-3, tails
     if technique == "EPIPOLAR_SAMPLING":
         # The sample with the low sun behind the ridge: epipolar against brute force at the same
         # steps, shadow maps and modes, in display values (issue 12: PSNR >= 40 dB).
@@ -349,5 +353,5 @@ def test_new_epipolar_table_sizes_resize_images_and_rebuild_no_group(addon_packa
         lit = bpy.data.images["OLS Epipolar Lit"]
         assert tuple(lit.size) == (samples, (slices + 1) * steps)
         seen = render_rgb(scene, tmp_path / f"s{slices}.exr", composite=True)[::-1]
-        assert np.median(relative_error(seen, twin())) <= 0.03, (slices, samples, steps)
+        assert np.median(relative_error(seen, twin())) <= 1e-3, (slices, samples, steps)
     assert builds == []

@@ -396,3 +396,29 @@ def test_light_shaft_groups_wait_while_the_shafts_are_off(addon):
     layout = bpy.data.node_groups["OLS Light Shafts"]["ols_layout"]
     assert layout != built and ", 3, " in layout and "False" in layout
     assert not scene.compositing_node_group.nodes["OLS Light Shafts"].mute
+
+
+def test_a_long_brute_force_march_keeps_every_tree_small(addon):
+    """Blender's nodes.new and links.new cost grows with the tree: 100 unrolled steps in one
+    tree (about 3 500 links) took 15-37 s a rebuild. The march is chained through chunk groups
+    of CHUNK_STEPS steps instead (the node-vs-twin tests in test_light_shafts_pass cover its
+    numbers, with a rest chunk)."""
+    bpy.ops.wm.read_factory_settings()
+    scene = bpy.context.scene
+    bpy.data.objects["Cube"].select_set(True)
+    assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+    light_shafts = module(addon, "addon.nodes.light_shafts")
+    scene.ols.enable_light_shafts = True
+    scene.ols.scattering_technique = "BRUTE_FORCE"
+    scene.ols.single_scattering_mode = "INTEGRATION"
+    scene.ols.num_integration_steps = 95
+    scene.frame_set(scene.frame_current)                      # the scene handlers rebuild
+    main = bpy.data.node_groups["OLS Light Shafts"]
+    assert main["ols_layout"].startswith("(95, ")
+    chunks = [n.node_tree.name for n in main.nodes if n.bl_idname == "CompositorNodeGroup"
+              and n.node_tree.name in (light_shafts.MARCH_CHUNK_GROUP, light_shafts.MARCH_REST_GROUP)]
+    assert chunks == [light_shafts.MARCH_CHUNK_GROUP] * 9 + [light_shafts.MARCH_REST_GROUP]
+    assert len(bpy.data.node_groups[light_shafts.MARCH_REST_GROUP].nodes) < len(
+        bpy.data.node_groups[light_shafts.MARCH_CHUNK_GROUP].nodes)
+    biggest = max(bpy.data.node_groups, key=lambda tree: len(tree.links))
+    assert len(biggest.links) < 1000, (biggest.name, len(biggest.links))

@@ -31,6 +31,8 @@ from .optical import (ozone_density, point_frame, segment_transmittance_node, tr
 GROUP_NAME = "OLS Light Shafts"
 SHADOW_TEST_GROUP = "OLS Shadow Test"
 INTEGRATION_GROUP = "OLS Integration Step"
+MARCH_CHUNK_GROUP = "OLS March Chunk"
+MARCH_REST_GROUP = "OLS March Rest"
 NEVER = 1e20                 # "no lit sample" in the first-lit minimum
 
 
@@ -238,8 +240,9 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
                                                    epipolar_images, params.mie_g)
         base = g.vmath("MULTIPLY", gin.outputs["Surface"], gin.outputs["Transmittance"])
     else:                       # the aerial group's image + shadowed - unshadowed
-        lit_length, first_lit, integrated = _march(g, gin, camera, direction, length, sun, layout, shadow_test,
-                                                   integration)
+        chunk_trees = {name: build_march_chunk_group(name, count, layout, shadow_test_tree, integration)
+                       for name, count in dict(march_chunks(layout.steps)).items()}
+        lit_length, first_lit, integrated = _march(g, gin, direction, length, sun, layout, chunk_trees)
         light, unshadowed = _brute_force_difference(g, camera, end, direction, sun, layout, lit_length, first_lit,
                                                     integrated)
         base = gin.outputs["Image"]
@@ -299,26 +302,76 @@ def _brute_force_difference(g, camera, end, direction, sun, layout: ShaftLayout,
     return g.vmath("SUBTRACT", shadowed, unshadowed), unshadowed
 
 
-def _march(g, gin, camera, direction, length, sun, layout: ShaftLayout, shadow_test, integration):
-    """Brute force: (lit length, first lit, integrated or None) from ``layout.steps`` shadow
-    tests at the step centres of the pixel's ray."""
-    step = g.div(length, float(layout.steps))
-    lit_length, first_lit, integrated, net_density = 0.0, NEVER, None, (0.0, 0.0, 0.0)
-    for i in range(layout.steps):
-        t = g.mul(step, i + 0.5)
+# Steps per "OLS March Chunk" group. Blender's nodes.new and links.new cost grows with the
+# tree's size, so unrolling 100 steps into one tree (about 3 500 links) took 15-37 s a rebuild;
+# chunks of this many steps keep every tree to a few hundred links (about 2 s).
+CHUNK_STEPS = 10
+MARCH_STATE = [("Lit Length", "NodeSocketFloat", 0.0), ("First Lit", "NodeSocketFloat", NEVER),
+               ("Net Density", "NodeSocketVector", (0.0, 0.0, 0.0)), ("Integrated", "NodeSocketVector", (0.0, 0.0, 0.0))]
+
+
+def march_chunks(steps: int):
+    """(group name, step count) of the chunk groups a march of ``steps`` steps is made of, in
+    order: full chunks, then the remainder's own group."""
+    full, rest = divmod(steps, CHUNK_STEPS)
+    return [(MARCH_CHUNK_GROUP, CHUNK_STEPS)] * full + ([(MARCH_REST_GROUP, rest)] if rest else [])
+
+
+def build_march_chunk_group(name: str, count: int, layout: ShaftLayout, shadow_test_tree, integration):
+    """``count`` consecutive march steps from "First Step" on: each shadow test adds to the lit
+    length (in steps) and lowers the first lit distance; with INTEGRATION each step's single
+    scattering is added, the net density carried from step to step."""
+    tree = new_group(name, "CompositorNodeTree")
+    inputs = (SHARED_INPUTS + cascade_inputs(layout.cascades) + MARCH_STATE
+              + [("Direction", "NodeSocketVector", (0.0, 1.0, 0.0)), ("Sun", "NodeSocketVector", (0.0, 0.0, 1.0)),
+                 ("Step", "NodeSocketFloat", 1.0), ("First Step", "NodeSocketFloat", 0.0)])
+    g, gin, gout = group_io(tree, inputs, MARCH_STATE)
+    camera, direction, step = gin.outputs["Camera Position"], gin.outputs["Direction"], gin.outputs["Step"]
+    state = {name: gin.outputs[name] for name, *_ in MARCH_STATE}
+    for j in range(count):
+        # (first + j) is an exact integer in float32: the same t and first-lit terms as a
+        # single unrolled march.
+        t = g.mul(step, g.add(gin.outputs["First Step"], j + 0.5))
         point = g.vmath("MULTIPLY_ADD", direction, g.combine(t, t, t), camera)
-        lit = shadow_test(point).outputs["Lit"]
-        lit_length = g.add(lit_length, lit)
+        test = g.node("CompositorNodeGroup")
+        test.node_tree = shadow_test_tree
+        g.links.new(point, test.inputs["Point"])
+        for socket, *_ in SHARED_INPUTS + cascade_inputs(layout.cascades):
+            g.links.new(gin.outputs[socket], test.inputs[socket])
+        lit = test.outputs["Lit"]
+        state["Lit Length"] = g.add(state["Lit Length"], lit)
         unlit = g.math("LESS_THAN", lit, 1e-6)
-        first_lit = g.math("MINIMUM", first_lit, g.mul_add(unlit, NEVER, g.mul(step, float(i))))
+        start = g.mul(step, g.add(gin.outputs["First Step"], float(j)))
+        state["First Lit"] = g.math("MINIMUM", state["First Lit"], g.mul_add(unlit, NEVER, start))
         if layout.single_mode == "INTEGRATION":
             node = g.node("CompositorNodeGroup")
             node.node_tree = integration
-            for name, value in (("Point", point), ("Direction", direction), ("Sun Direction", sun), ("Lit", lit),
-                                ("Step", step), ("Net Density Before", net_density)):
-                g.feed(node.inputs[name], value)
-            net_density = node.outputs["Net Density After"]
-            integrated = node.outputs["Radiance"] if integrated is None else g.vmath("ADD", integrated, node.outputs["Radiance"])
-    lit_length = g.mul(lit_length, step)
-    first_lit = g.math("MINIMUM", first_lit, length)
-    return lit_length, first_lit, integrated
+            for socket, value in (("Point", point), ("Direction", direction), ("Sun Direction", gin.outputs["Sun"]),
+                                  ("Lit", lit), ("Step", step), ("Net Density Before", state["Net Density"])):
+                g.feed(node.inputs[socket], value)
+            state["Net Density"] = node.outputs["Net Density After"]
+            state["Integrated"] = g.vmath("ADD", state["Integrated"], node.outputs["Radiance"])
+    for name, value in state.items():
+        g.links.new(value, gout.inputs[name])
+    return tree
+
+
+def _march(g, gin, direction, length, sun, layout: ShaftLayout, chunk_trees):
+    """Brute force: (lit length, first lit, integrated or None) from ``layout.steps`` shadow
+    tests at the step centres of the pixel's ray, chained through the chunk groups."""
+    step = g.div(length, float(layout.steps))
+    state = {name: default for name, _, default in MARCH_STATE}
+    first = 0
+    for name, count in march_chunks(layout.steps):
+        node = g.node("CompositorNodeGroup")
+        node.node_tree = chunk_trees[name]
+        for socket, *_ in SHARED_INPUTS + cascade_inputs(layout.cascades):
+            g.links.new(gin.outputs[socket], node.inputs[socket])
+        for socket, value in (("Direction", direction), ("Sun", sun), ("Step", step), ("First Step", float(first)),
+                              *state.items()):
+            g.feed(node.inputs[socket], value)
+        state = {name: node.outputs[name] for name, *_ in MARCH_STATE}
+        first += count
+    lit_length = g.mul(state["Lit Length"], step)
+    first_lit = g.math("MINIMUM", state["First Lit"], length)
+    return lit_length, first_lit, state["Integrated"] if layout.single_mode == "INTEGRATION" else None
