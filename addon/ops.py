@@ -2,6 +2,8 @@
 lamp's colour and animation current. The bpy layer only: the work lives in scene/ and lut_gen."""
 from __future__ import annotations
 
+import os
+import sys
 import threading
 import traceback
 from pathlib import Path
@@ -353,9 +355,35 @@ def on_frame_change_post(scene, depsgraph=None):
         _update_frame(scene, depsgraph)
 
 
+def table_problem(scene):
+    """Why the wired ``scene``'s tables must not render (LutError text naming the file and the
+    fix), or None: they verify (cached hashes, so a render start costs only stats)."""
+    key = scene.get(wiring.WIRED_KEY) if scene is not None else None
+    if not key:
+        return None
+    try:
+        luts.verify_wired(key)
+    except lut_gen.LutError as exc:
+        return str(exc)
+    return None
+
+
 @persistent
-def on_render_init(*_args):
+def on_render_init(scene=None, *_args):
     frame_update.set_rendering(True)
+    problem = table_problem(scene)
+    if problem is None:
+        return
+    if bpy.app.background:
+        # A farm's `blender -b shot.blend -a` (no script of ours runs before it): a handler cannot
+        # cancel the render, so the process ends here, with one line and status 1, before any
+        # frame is written with a wrong sky. scripts/render.py refuses such tables before this.
+        print(f"error: Outdoor Light Scattering: scene {scene.name!r}: {problem}; nothing was rendered",
+              file=sys.stderr, flush=True)
+        sys.stdout.flush()
+        os._exit(1)
+    # In the UI the render cannot be stopped from here; the file load started a re-bake.
+    print(f"Outdoor Light Scattering: scene {scene.name!r}: this render uses damaged tables: {problem}")
 
 
 @persistent

@@ -13,6 +13,7 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty
 
+from ..lut_gen import render_detail
 from ..lut_gen.atmosphere import (DEFAULT_GROUND_ALBEDO, DEFAULT_RAYLEIGH_SCATTERING,
                                   AtmosphereParams, preset)
 
@@ -227,7 +228,9 @@ class OLSSettings(bpy.types.PropertyGroup):
         name="Shadow Map Resolution",
         description=_d("shadow_map_resolution",
                        "Resolution of the sun shadow map (the number of cascades is set in the "
-                       "additional controls)"),
+                       "additional controls). Renders under 512 pixels wide use at most the power of "
+                       "two at 8 texels per pixel of their larger side: finer maps change nothing "
+                       "they can show"),
         items=(
             ("512", "512 x 512", "512 x 512 shadow map"),
             ("1024", "1024 x 1024", "1024 x 1024 shadow map"),
@@ -249,7 +252,8 @@ class OLSSettings(bpy.types.PropertyGroup):
         name="Epipolar Slices",
         description=_d("epipolar_slices",
                        "Number of epipolar slices. More slices give higher quality at higher "
-                       "cost; at least half the largest image dimension looks good"),
+                       "cost; at least half the largest image dimension looks good. A render uses "
+                       "at most its perimeter in pixels (more are under a pixel apart)"),
         default=512, min=32, max=2048,
         update=_sync_compositor,
     )
@@ -257,7 +261,8 @@ class OLSSettings(bpy.types.PropertyGroup):
         name="Total Samples in Slice",
         description=_d("samples_per_slice",
                        "Number of samples along each epipolar slice; at least half the largest "
-                       "image dimension looks good"),
+                       "image dimension looks good. A render uses at most twice its diagonal in "
+                       "pixels (more are under a pixel apart)"),
         default=256, min=32, max=2048,
         update=_sync_compositor,
     )
@@ -587,13 +592,21 @@ def safe_value(settings, name: str):
 
 
 class Sanitized:
-    """scene.ols as the render reads it: every number through safe_value."""
+    """scene.ols as the render reads it: every number through safe_value, and the shadow-map
+    resolution, epipolar slices and samples capped at what the scene's render size can resolve
+    (lut_gen.render_detail)."""
 
     def __init__(self, settings):
         self._settings = settings
+        scene = settings.id_data
+        render = getattr(scene, "render", None)
+        self._capped = {} if render is None else render_detail.capped_fields(
+            *render_detail.render_size(render.resolution_x, render.resolution_y, render.resolution_percentage))
 
     def __getattr__(self, name):
-        return safe_value(self._settings, name)
+        value = safe_value(self._settings, name)
+        cap = self._capped.get(name)
+        return value if cap is None else cap(value)
 
 
 def _f32_value(value):

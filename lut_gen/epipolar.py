@@ -21,11 +21,11 @@ lut_gen.epipolar_air. Depth breaks cost nothing: no pixel borrows another's dept
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from . import aerial, min_max
+from . import aerial, min_max, render_detail
 from .shadow_map import Camera, ShadowCascades, visibility
 
 MIN_NEAR = 10.0                 # m: the distance grid is geometric from here (1 m: 4 dB worse on the sample)
@@ -63,6 +63,13 @@ def settings_from(controls) -> EpipolarSettings:
         slices=controls.epipolar_slices, samples=controls.samples_per_slice, steps=controls.num_integration_steps,
         initial_sample_step=controls.initial_sample_step, epipole_sampling_density=controls.epipole_sampling_density,
         refinement_threshold=controls.refinement_threshold, use_min_max=controls.use_min_max_optimization)
+
+
+def for_render(wanted: EpipolarSettings, width: int, height: int) -> EpipolarSettings:
+    """``wanted`` with its slices and samples capped at what a width x height render resolves
+    (lut_gen.render_detail; the add-on's settings arrive capped already)."""
+    return replace(wanted, slices=render_detail.epipolar_slices(wanted.slices, width, height),
+                   samples=render_detail.epipolar_samples(wanted.samples, width, height))
 
 
 @dataclass(frozen=True)

@@ -96,13 +96,13 @@ def build(luts: Luts, frame: EpipolarFrame, camera_position) -> AirTables:
     points = camera + directions * t[:, None]
     transmittance = aerial.segment_transmittance(luts, camera, points)
 
-    def inscattering(table):
-        radiance = aerial._eq8(luts, camera, points, directions, frame.sun, table, 1.0, transmittance,
-                               phase_free=True).astype(np.float32)
+    # The three tables at the same points: one set of look-up coordinates and corners.
+    radiances = aerial._eq8(luts, camera, points, directions, frame.sun, ("single", "single_mie", "higher"), 1.0,
+                            transmittance, phase_free=True)
+    radiances = [radiance.astype(np.float32) for radiance in radiances]
+    for radiance in radiances:
         radiance[:, :, 0] = 0.0         # I(0) = 0 (eq. 8's clamp and float error leave a trace)
-        return radiance
-
-    return AirTables(inscattering("single"), inscattering("single_mie"), inscattering("higher"))
+    return AirTables(*radiances)
 
 
 def inscattering(luts: Luts, frame: EpipolarFrame, tables: AirTables, part: str, direction, distance) -> np.ndarray:

@@ -45,20 +45,28 @@ def interpolate(table: np.ndarray, coords, chunk: int = 1 << 20, geometric_axes=
     ``geometric_axes``: axes blended geometrically (geometric_lerp) after the linear blend of the
     others, i.e. bilinear in log space on those axes. ``packed``: packed_rows(table), when the
     caller keeps it (packing copies the table)."""
-    axes = table.shape[:-1]
+    return interpolate_many([table], coords, chunk, geometric_axes, [packed])[0]
+
+
+def interpolate_many(tables, coords, chunk: int = 1 << 20, geometric_axes=(), packed=None) -> list:
+    """interpolate() of several tables of the same axes at the same coordinates: the corners'
+    indices and weights are found once for all of them. ``packed``: a list (entries may be
+    None) as interpolate's."""
+    axes = tables[0].shape[:-1]
+    if any(t.shape[:-1] != axes for t in tables):
+        raise ValueError(f"tables of different axes: {[t.shape for t in tables]}")
     if len(coords) != len(axes):
         raise ValueError(f"{len(axes)}D table needs {len(axes)} coordinates, got {len(coords)}")
     coords = np.broadcast_arrays(*[np.asarray(c, dtype=np.float64) for c in coords])
     shape = coords[0].shape
     flat_coords = [c.reshape(-1) for c in coords]
-    channels = table.shape[-1]
-    packed, width = packed if packed is not None else packed_rows(table)
+    packed = [p if p is not None else packed_rows(t) for t, p in zip(tables, packed or [None] * len(tables))]
     strides = np.cumprod((1,) + axes[::-1])[:-1][::-1]
-    out = np.empty((flat_coords[0].size, table.shape[-1]), dtype=np.float32)
-    for start in range(0, out.shape[0], chunk):
+    outs = [np.empty((flat_coords[0].size, t.shape[-1]), dtype=np.float32) for t in tables]
+    for start in range(0, flat_coords[0].size, chunk):
         sl = slice(start, start + chunk)
         lows, weights = zip(*(axis_weights(c[sl], n) for c, n in zip(flat_coords, axes)))
-        partial = {}                  # linear blends keyed by their corner on the geometric axes
+        partials = [{} for _ in tables]   # linear blends keyed by their corner on the geometric axes
         for corner in itertools.product((0, 1), repeat=len(axes)):
             index = np.zeros(lows[0].size, dtype=np.int64)
             weight = np.ones(lows[0].size, dtype=np.float32)
@@ -67,14 +75,16 @@ def interpolate(table: np.ndarray, coords, chunk: int = 1 << 20, geometric_axes=
                 if axis not in geometric_axes:
                     weight *= w if bit else 1.0 - w
             key = tuple(corner[axis] for axis in geometric_axes)
-            term = weight[:, None] * gather(packed, width, index)[:, :channels]
-            partial[key] = term if key not in partial else partial[key] + term
-        for axis in geometric_axes:   # log-space blending is separable: the order does not matter
-            w = weights[axis][:, None]
-            partial = {key[1:]: geometric_lerp(partial[(0,) + key[1:]], partial[(1,) + key[1:]], w)
-                       for key in partial if key[0] == 0}
-        out[sl] = partial[()]
-    return out.reshape(shape + (table.shape[-1],))
+            for table, (rows, width), partial in zip(tables, packed, partials):
+                term = weight[:, None] * gather(rows, width, index)[:, :table.shape[-1]]
+                partial[key] = term if key not in partial else partial[key] + term
+        for out, partial in zip(outs, partials):
+            for axis in geometric_axes:   # log-space blending is separable: the order does not matter
+                w = weights[axis][:, None]
+                partial = {key[1:]: geometric_lerp(partial[(0,) + key[1:]], partial[(1,) + key[1:]], w)
+                           for key in partial if key[0] == 0}
+            out[sl] = partial[()]
+    return [out.reshape(shape + (t.shape[-1],)) for out, t in zip(outs, tables)]
 
 
 def resample_matrix(x, n: int) -> np.ndarray:

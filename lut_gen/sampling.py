@@ -24,7 +24,7 @@ import numpy as np
 
 from . import parameterization as par
 from .atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
-from .interpolation import interpolate, packed_rows
+from .interpolation import interpolate, interpolate_many, packed_rows
 
 # The 4D tables are blended geometrically along height and sun zenith (lut_gen.interpolation):
 # at twilight and near the ground the radiance changes by a factor per node there, not by a
@@ -158,14 +158,21 @@ class Luts:
         """In-scattered radiance toward a viewer at ``height_m`` looking along the given
         direction, per unit sun, phase functions included. ``above_horizon`` forces the side of
         the horizon seam (pass the flag of an earlier look-up on the same ray). ``phase_free``:
-        the stored table alone (``table`` may then be "single_mie"), no phase function and no
-        Mie part added."""
-        if table not in TABLES and not phase_free:
+        the stored table alone (``table`` may then be "single_mie", or a tuple of names: then a
+        tuple of radiances, found with one set of coordinates and corners), no phase function
+        and no Mie part added."""
+        several = isinstance(table, tuple)
+        if (several or table not in TABLES) and not phase_free:
             raise ValueError(f"the {table!r} table has no phase function of its own: look it up phase_free")
         cos_sun_view = par.clamp_sun_view(cos_view_zenith, cos_sun_zenith, cos_sun_view)
         xh, xa, xs, xt, above = par.world_to_x(self.params, self.dims, height_m, cos_view_zenith,
                                                cos_sun_zenith, cos_sun_view, above_horizon)
         coords = (xh, xa, xs, xt)
+        if several:
+            scale = par.look_up_scale(self.params, height_m, cos_view_zenith, above)[..., None].astype(np.float32)
+            radiances = interpolate_many([self.table(name) for name in table], coords, geometric_axes=GEOMETRIC_AXES,
+                                         packed=[self._packed_table(name) for name in table])
+            return tuple(radiance * scale for radiance in radiances)
         radiance = interpolate(self.table(table), coords, geometric_axes=GEOMETRIC_AXES,
                                packed=self._packed_table(table))
         if not phase_free:

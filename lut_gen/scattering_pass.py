@@ -128,7 +128,7 @@ def epipolar_pass(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades
                   width: int, height: int):
     """(unshadowed in-scattering, shadowed minus unshadowed, Show Sampling's overlay or None)
     per unit sun of every pixel, from the epipolar tables (lut_gen.epipolar, epipolar_air)."""
-    wanted = epipolar.settings_from(settings)
+    wanted = epipolar.for_render(epipolar.settings_from(settings), width, height)
     frame = epipolar.frame_for(camera, sun, width, height, float(cascades.far_depths[-1]), wanted)
     tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
                                    settings.best_cascade_search, settings.first_cascade_to_ray_march, luts,

@@ -1,5 +1,6 @@
 """Headless rendering (addon/batch.py via scripts/render.py): options, and one-line errors with
 exit status 1 for bad input."""
+import os
 import subprocess
 import sys
 from importlib import import_module
@@ -120,6 +121,41 @@ def test_wired_blend_with_damaged_tables_that_cannot_be_baked_is_not_rendered(ba
     line = error_line(capsys)
     assert "optical_depth.exr" in line and "bake the tables again" in line
     assert not out.exists()
+
+
+FARM_WORKER = """
+import sys
+sys.path.insert(0, sys.argv[1])
+import bpy
+from conftest import import_extension
+import_extension().register()
+bpy.ops.wm.open_mainfile(filepath=sys.argv[2])          # load_post: the repair bake fails
+scene = bpy.context.scene
+scene.render.resolution_x, scene.render.resolution_y, scene.cycles.samples = 32, 18, 1
+scene.frame_start, scene.frame_end = 1, 2
+scene.render.filepath = sys.argv[3]
+bpy.ops.render.render(animation=True)                   # `blender -b shot.blend -a`
+print("rendered")
+"""
+
+
+def test_farm_render_of_damaged_tables_exits_1_before_any_frame(wired_blend, tmp_path):
+    """Issue 9, item 1: `blender -b shot.blend -a` runs no script of ours, and a handler cannot
+    cancel a render. Where the load's repair bake cannot be written, the render's start ends
+    the process with one error line and status 1, before a frame is written."""
+    blend, directory = wired_blend
+    path = directory / "optical_depth.exr"
+    path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    (tmp_path / "file").write_text("x")
+    env = {**os.environ, "OLS_CACHE_DIR": str(tmp_path / "file" / "cache")}
+    frames = tmp_path / "frames" / "f_"
+    result = subprocess.run([sys.executable, "-c", FARM_WORKER, str(ROOT / "tests"), str(blend), str(frames)],
+                            capture_output=True, text=True, timeout=600, env=env, cwd=str(ROOT))
+    assert result.returncode == 1, result.stdout[-2000:] + result.stderr[-2000:]
+    errors = [line for line in result.stderr.splitlines() if line.startswith("error: ")]
+    assert len(errors) == 1 and "optical_depth.exr" in errors[0] and "nothing was rendered" in errors[0], result.stderr
+    assert "Traceback" not in result.stderr and "rendered" not in result.stdout.split()
+    assert not (tmp_path / "frames").exists() or not any((tmp_path / "frames").iterdir())
 
 
 def test_render_operator_refuses_damaged_tables(wired_blend, tmp_path, addon_package):

@@ -228,17 +228,32 @@ def test_bad_scenes_render_without_nan_and_say_why(addon_package, tmp_path, monk
     assert checks.render_problems(scene, depsgraph) == []
     good = render_rgb(scene, tmp_path / "good.exr", composite=True)
 
-    # Epipolar tables too large for memory: brute force runs instead, and the checks say so.
+    # Epipolar tables too large for memory: brute force runs instead, and the checks say so. At
+    # this small render the slices and samples are capped at what its pixels resolve
+    # (lut_gen.render_detail), so the tables fit; a 1280 x 720 render uses all 2048 x 2048.
     epipolar_tables = import_module(addon_package.__name__ + ".addon.scene.epipolar_tables")
+    props = import_module(addon_package.__name__ + ".addon.props")
     scene.ols.epipolar_slices, scene.ols.samples_per_slice = 2048, 2048
-    assert epipolar_tables.technique(scene.ols) == "BRUTE_FORCE"
+    assert epipolar_tables.technique(props.Sanitized(scene.ols)) == "EPIPOLAR_SAMPLING"
+    assert checks.render_problems(scene, depsgraph) == []
+    size = scene.render.resolution_x, scene.render.resolution_y
+    scene.render.resolution_x, scene.render.resolution_y = 1280, 720
+    assert epipolar_tables.technique(props.Sanitized(scene.ols)) == "BRUTE_FORCE"
     assert any("brute force ray marching runs instead" in p for p in checks.render_problems(scene, depsgraph))
+    scene.render.resolution_x, scene.render.resolution_y = size
     scene.ols.epipolar_slices, scene.ols.samples_per_slice = 512, 256
 
-    # Shadow-map images removed (or emptied): rebuilt before the next render, same picture.
+    # The epipolar technique marches its tables in numpy: its group reads no shadow-map atlas,
+    # and none is packed. Brute force reads it: removed (or emptied), it is rebuilt before the
+    # next render, same picture.
+    assert scene.ols.scattering_technique == "EPIPOLAR_SAMPLING"
+    assert shadow_maps.ATLAS_IMAGE not in bpy.data.images
+    scene.ols.scattering_technique = "BRUTE_FORCE"
+    brute = render_rgb(scene, tmp_path / "brute.exr", composite=True)
     bpy.data.images.remove(bpy.data.images[shadow_maps.ATLAS_IMAGE])
     again = render_rgb(scene, tmp_path / "again.exr", composite=True)
-    np.testing.assert_allclose(again, good, rtol=1e-4, atol=1e-6)
+    np.testing.assert_allclose(again, brute, rtol=1e-4, atol=1e-6)
+    scene.ols.scattering_technique = "EPIPOLAR_SAMPLING"
 
     # Sun below the horizon: twilight, finite and non-negative.
     sun_mod = import_module(addon_package.__name__ + ".addon.scene.sun")

@@ -117,14 +117,18 @@ class _Grid:
         self.u = g.div(g.mul_add(along, g.sub(N, 1.0), 0.5), N)
         self.first_row = g.mul(self.slice, self.K)
 
-    def fetch(self, image, z):
-        """``image`` at distance node ``z``: bilinear in hardware along samples and distances,
-        the two slices blended by hand."""
+    def coordinates(self, z):
+        """The texture coordinates of distance node ``z`` in the two slices around the pixel:
+        the same for every image of this grid, so images read at one distance share them."""
         g = self.g
         row = g.add(self.first_row, g.add(z, 0.5))
-        rows = [g.image(image, g.combine(self.u, g.div(g.add(row, offset), self.height), 1.0),
-                        interpolation="Linear") for offset in (0.0, self.K)]
-        return g.vlerp(rows[0], rows[1], self.weight)
+        return [g.combine(self.u, g.div(g.add(row, offset), self.height), 1.0) for offset in (0.0, self.K)]
+
+    def fetch(self, image, z, coordinates=None):
+        """``image`` at distance node ``z`` (or at its ``coordinates``): bilinear in hardware
+        along samples and distances, the two slices blended by hand."""
+        rows = [self.g.image(image, uv, interpolation="Linear") for uv in coordinates or self.coordinates(z)]
+        return self.g.vlerp(rows[0], rows[1], self.weight)
 
 
 def in_scattering(g, gin, direction, length, sun, geometry, layout, images, mie_g):
@@ -139,7 +143,8 @@ def in_scattering(g, gin, direction, length, sun, geometry, layout, images, mie_
     t_max, growth, reach = g.separate(gin.outputs["Epipolar Depth"])
     grid = _Grid(g, gin.outputs["Epipolar Grid"], across, along)
     z = _distance_node(g, length, t_max, growth, grid.K)
-    lit_length, first_lit, _ = g.separate(grid.fetch(lit_image, z))
+    at_z = grid.coordinates(z)                  # the lit and the integral tables share them
+    lit_length, first_lit, _ = g.separate(grid.fetch(lit_image, z, at_z))
     # Beyond the grid (past the farthest shadow caster) the air is lit, as outside every cascade.
     beyond = g.math("MAXIMUM", g.sub(length, t_max), 0.0)
     lit_length = g.add(g.math("MINIMUM", lit_length, length), beyond)
@@ -148,13 +153,14 @@ def in_scattering(g, gin, direction, length, sun, geometry, layout, images, mie_
 
     air_grid = _Grid(g, gin.outputs["Epipolar Air Grid"], across, along)
     air_growth = g.div(reach, epipolar.MIN_NEAR)
-    nodes_at, fetched = {}, {}
+    coordinates_at, fetched = {}, {}
 
     def fetch(table, name):
-        if name not in nodes_at:
-            nodes_at[name] = _distance_node(g, distances[name], reach, air_growth, air_grid.K)
+        if name not in coordinates_at:
+            coordinates_at[name] = air_grid.coordinates(_distance_node(g, distances[name], reach, air_growth,
+                                                                       air_grid.K))
         if (table, name) not in fetched:
-            fetched[table, name] = air_grid.fetch(air_images[AIR_IMAGES[table]], nodes_at[name])
+            fetched[table, name] = air_grid.fetch(air_images[AIR_IMAGES[table]], None, coordinates_at[name])
         return fetched[table, name]
 
     def weights(uses, end=geometry):
@@ -186,6 +192,6 @@ def in_scattering(g, gin, direction, length, sun, geometry, layout, images, mie_
     uses = epipolar_air.table_uses(layout.single_mode, layout.multiple_mode)
     light = phased(weights(uses["single"]), weights(uses["higher"]))
     if layout.single_mode == "INTEGRATION":
-        light = g.vmath("ADD", light, grid.fetch(integral_image, z))
+        light = g.vmath("ADD", light, grid.fetch(integral_image, z, at_z))
     # The same fetches of I(end): the unshadowed light, for the share sky pixels take.
     return light, phased({"end": 1.0}, {"end": 1.0})

@@ -38,10 +38,21 @@ def pack(values: dict, previous=None) -> np.ndarray:
     return table
 
 
+ROWS_KEY = "ols_rows"        # on the group: the rows it was built for (see is_current)
+
+
+def is_current(tree, image) -> bool:
+    """Whether ``tree`` is this version's group reading ``image``: it does not depend on the
+    light shafts' layout, so their rebuilds keep it."""
+    return (tree is not None and tree.get(ROWS_KEY) == repr(ROWS)
+            and any(node.bl_idname == "CompositorNodeImage" and node.image == image for node in tree.nodes))
+
+
 def build_frame_values_group(image):
     """Outputs named as the inputs of the aerial and light-shaft groups they feed. The "Image"
     input only gives the outputs the render's size (each pixel reads the same value)."""
     tree = new_group(GROUP_NAME, "CompositorNodeTree")
+    tree[ROWS_KEY] = repr(ROWS)
     outputs = [(name, "NodeSocketVector", None) for name in VECTOR_ROWS] + [(n, "NodeSocketFloat", None) for n in SCALARS]
     g, gin, gout = group_io(tree, [("Image", "NodeSocketColor", (0.0, 0.0, 0.0, 1.0))], outputs)
     coordinates = g.node("CompositorNodeImageCoordinates")

@@ -31,6 +31,7 @@ from .optical import (ozone_density, point_frame, segment_transmittance_node, tr
 GROUP_NAME = "OLS Light Shafts"
 SHADOW_TEST_GROUP = "OLS Shadow Test"
 INTEGRATION_GROUP = "OLS Integration Step"
+READS_SHADOW_MAPS_KEY = "ols_reads_shadow_maps"     # on the main group: ShaftLayout.reads_shadow_maps
 MARCH_CHUNK_GROUP = "OLS March Chunk"
 MARCH_REST_GROUP = "OLS March Rest"
 NEVER = 1e20                 # "no lit sample" in the first-lit minimum
@@ -52,6 +53,13 @@ class ShaftLayout:
     @property
     def epipolar(self) -> bool:
         return self.technique == "EPIPOLAR_SAMPLING"
+
+    @property
+    def reads_shadow_maps(self) -> bool:
+        """Whether the compositor reads the shadow-map images: brute force marches them, the
+        epipolar technique only tints with them for Show Cascades (its tables are marched in
+        numpy). Otherwise no shadow test group is built and no atlas written."""
+        return not self.epipolar or self.show_cascades
 
     @classmethod
     def from_settings(cls, settings, technique=None):
@@ -198,10 +206,11 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     """(Re)build "OLS Light Shafts" and its sub-groups for ``layout``; the epipolar technique
     reads ``epipolar_images`` (lit, integral or None, sampling overlay, {name: in-scattering
     image}) instead of marching."""
-    shadow_test_tree = build_shadow_test_group(layout, atlas_image, parameter_image)
-    integration = build_integration_group(optical_image, params)
+    shadow_test_tree = (build_shadow_test_group(layout, atlas_image, parameter_image)
+                        if layout.reads_shadow_maps else None)
     tree = new_group(GROUP_NAME, "CompositorNodeTree")
     tree["ols_layout"] = layout.as_key()
+    tree[READS_SHADOW_MAPS_KEY] = layout.reads_shadow_maps
     inputs = MAIN_INPUTS + SHARED_INPUTS + cascade_inputs(layout.cascades) + (epipolar.INPUTS if layout.epipolar else [])
     g, gin, gout = group_io(tree, inputs, [("Image", "NodeSocketColor", None)])
     camera, forward = gin.outputs["Camera Position"], gin.outputs["Camera Forward"]
@@ -240,6 +249,7 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
                                                    epipolar_images, params.mie_g)
         base = g.vmath("MULTIPLY", gin.outputs["Surface"], gin.outputs["Transmittance"])
     else:                       # the aerial group's image + shadowed - unshadowed
+        integration = build_integration_group(optical_image, params)
         chunk_trees = {name: build_march_chunk_group(name, count, layout, shadow_test_tree, integration)
                        for name, count in dict(march_chunks(layout.steps)).items()}
         lit_length, first_lit, integrated = _march(g, gin, direction, length, sun, layout, chunk_trees)

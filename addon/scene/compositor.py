@@ -172,7 +172,8 @@ def link_light_shafts(scene):
         frame.location = (aerial.location.x - 200, aerial.location.y - 300)
     if bpy.data.images.get(FRAME_IMAGE) is None:
         luts.write_data_image(FRAME_IMAGE, nodes.frame_values.pack({}))
-    frame.node_tree = nodes.build_frame_values_group(bpy.data.images[FRAME_IMAGE])
+    if not nodes.frame_values.is_current(frame.node_tree, bpy.data.images[FRAME_IMAGE]):
+        frame.node_tree = nodes.build_frame_values_group(bpy.data.images[FRAME_IMAGE])
     tree.links.new(layers.outputs["Image"], frame.inputs["Image"])
     for target in (aerial, shafts):
         for output in frame.outputs:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from ...lut_gen import epipolar, epipolar_air
+from ...lut_gen import epipolar, epipolar_air, render_detail
 from .. import nodes, props
 from . import luts
 
@@ -17,8 +17,8 @@ ALL_IMAGES = (LIT_IMAGE, INTEGRAL_IMAGE, SAMPLING_IMAGE, *nodes.epipolar.AIR_IMA
 
 def render_size(scene):
     """(width, height) in pixels of the scene's render."""
-    percent = scene.render.resolution_percentage / 100.0
-    return max(int(scene.render.resolution_x * percent), 1), max(int(scene.render.resolution_y * percent), 1)
+    render = scene.render
+    return render_detail.render_size(render.resolution_x, render.resolution_y, render.resolution_percentage)
 
 
 def table_texels(settings) -> int:

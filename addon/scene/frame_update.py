@@ -84,7 +84,8 @@ def update_frame(scene, depsgraph) -> bool:
     cascades, extra = None, None
     if node is not None and not node.mute:
         cascades = shadow_maps.render(scene, depsgraph)
-        shadow_maps.write_images(cascades)
+        if node.node_tree.get(nodes.READS_SHADOW_MAPS_KEY, True):
+            shadow_maps.write_images(cascades)
         if node.node_tree.get("ols_layout", "").find("EPIPOLAR_SAMPLING") >= 0:
             sun, _ = shadow_maps.sun_state(scene, depsgraph)
             extra = epipolar_tables.update(scene, shadow_maps.camera_model(scene, depsgraph), sun, cascades,

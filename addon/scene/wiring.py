@@ -60,8 +60,12 @@ def build_groups(bake_dir, engine="CYCLES"):
 def build_light_shafts(scene, optical_image, params):
     """(Re)build the light-shaft groups for the scene's structural settings (ShaftLayout)."""
     settings = props.Sanitized(scene.ols)
-    atlas, table = shadow_maps.ensure_images(int(settings.shadow_map_resolution), settings.num_cascades)
     layout = nodes.ShaftLayout.from_settings(settings, epipolar_tables.technique(settings))
+    atlas, table = None, None
+    if layout.reads_shadow_maps:
+        atlas, table = shadow_maps.ensure_images(int(settings.shadow_map_resolution), settings.num_cascades)
+    else:
+        shadow_maps.release_buffer()            # nothing packs an atlas while the compositor reads none
     nodes.build_light_shaft_groups(optical_image, atlas, table, params, layout,
                                    epipolar_tables.ensure_images(layout, settings))
     frame_update.forget()           # new groups may read new (empty) images: write them again
@@ -82,7 +86,8 @@ def match_light_shaft_layout(scene) -> bool:
         return False
     layout = nodes.ShaftLayout.from_settings(settings, epipolar_tables.technique(settings))
     if (group.get("ols_layout") == layout.as_key()
-            and shadow_maps.images_intact(bpy.data.node_groups.get(nodes.SHADOW_TEST_GROUP))):
+            and (not layout.reads_shadow_maps
+                 or shadow_maps.images_intact(bpy.data.node_groups.get(nodes.SHADOW_TEST_GROUP)))):
         if epipolar_tables.images_intact(layout, settings):
             return False
         if epipolar_tables.resize_images(layout, settings):   # new slices, samples or steps
