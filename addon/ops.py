@@ -355,23 +355,10 @@ def on_frame_change_post(scene, depsgraph=None):
         _update_frame(scene, depsgraph)
 
 
-def table_problem(scene):
-    """Why the wired ``scene``'s tables must not render (LutError text naming the file and the
-    fix), or None: they verify (cached hashes, so a render start costs only stats)."""
-    key = scene.get(wiring.WIRED_KEY) if scene is not None else None
-    if not key:
-        return None
-    try:
-        luts.verify_wired(key)
-    except lut_gen.LutError as exc:
-        return str(exc)
-    return None
-
-
 @persistent
 def on_render_init(scene=None, *_args):
     frame_update.set_rendering(True)
-    problem = table_problem(scene)
+    problem = wiring.table_problem(scene)
     if problem is None:
         return
     if bpy.app.background:

@@ -1,7 +1,10 @@
 """The View3D sidebar panel (tab "Atmosphere"): the sample's three control sets."""
+import textwrap
+
 import bpy
 
 from .props import LATER_ISSUE, PROPERTIES_BY_SET
+from .scene import wiring
 
 # (operator idname, button text, icon); written in addon/ops.py.
 OPERATORS = (
@@ -77,6 +80,20 @@ def draw_operators(layout):
             row.label(text=f"{text} (unavailable)", icon=icon)
 
 
+def draw_table_problem(layout, scene):
+    """A wired scene whose tables fail verification says so at the top, with the file and the
+    fix: F12 cannot be stopped from the add-on, so the panel is where the user sees it."""
+    problem = wiring.table_problem(scene)
+    if problem is None:
+        return
+    box = layout.box()
+    box.alert = True
+    box.label(text="The tables fail verification:", icon='ERROR')
+    for line in textwrap.wrap(problem, 48):
+        box.label(text=line)
+    box.label(text="Bake Tables repairs them before the next render")
+
+
 class OLS_PT_atmosphere(bpy.types.Panel):
     """Outdoor Light Scattering: the sample's controls"""
 
@@ -93,6 +110,7 @@ class OLS_PT_atmosphere(bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
+        draw_table_problem(layout, context.scene)
         draw_settings(layout, context.scene.ols)
         layout.separator()
         draw_operators(layout)

@@ -166,30 +166,41 @@ def removed_if_left_empty(directory):
         raise
 
 
-def check_output_directory(directory, key: str, *, overwrite: bool = False) -> Path:
+def _remedy(what: str, option: str, can_overwrite: bool) -> str:
+    """What the user can do about a directory holding another bake: the command's way out."""
+    if can_overwrite:
+        return f"choose another directory, or pass --overwrite to replace {what}"
+    return f"choose another {option} directory, or delete {what}"
+
+
+def check_output_directory(directory, key: str, *, overwrite: bool = False, option: str = "--out",
+                           can_overwrite: bool = True) -> Path:
     """Create ``directory`` if needed and make sure a bake with ``key`` may be written there:
     writable, and not holding a different bake unless ``overwrite``. Cheap: call it before
-    a long bake so that a bad --out fails at once."""
+    a long bake so that a bad --out fails at once. ``option`` and ``can_overwrite``: how the
+    calling command names the directory and whether it has --overwrite (the messages say so)."""
     directory = Path(directory)
     try:
         directory.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise LutError(f"cannot create output directory {directory}: {exc.strerror}") from exc
     if not os.access(directory, os.W_OK | os.X_OK):
-        raise LutError(f"output directory {directory} is not writable; choose another with --out")
+        raise LutError(f"output directory {directory} is not writable; choose another with {option}")
     for filename in FILES.values():
         _refuse_foreign_file(directory / filename)
     existing = _existing_key(directory)
     if existing == UNREADABLE and not overwrite:
         raise LutError(f"{directory} holds damaged tables whose bake cannot be told "
-                       f"({_read_problem(directory / FILES['multiple'])}); pass --overwrite to replace them, "
-                       "or choose another directory")
+                       f"({_read_problem(directory / FILES['multiple'])}); "
+                       + _remedy("them", option, can_overwrite))
     if existing not in (None, key) and not overwrite:
         header = _header_or_empty(directory / FILES["multiple"])
         if header:
-            _check_layout(directory, header)
-        raise LutError(f"{directory} holds a different bake ({existing}); choose another directory "
-                       "or pass --overwrite to replace it")
+            if can_overwrite:
+                _check_layout(directory, header)
+            else:
+                _check_layout(directory, header, f"re-bake into an empty {option} directory, or delete them")
+        raise LutError(f"{directory} holds a different bake ({existing}); " + _remedy("it", option, can_overwrite))
     return directory
 
 
@@ -254,12 +265,12 @@ def _write_tables(OpenEXR, directory: Path, key: str, luts: Luts):
                 os.unlink(tmp)
 
 
-def _check_layout(directory, header: dict):
+def _check_layout(directory, header: dict, remedy: str = "re-bake into an empty directory, or pass --overwrite "
+                                                          "to replace them"):
     version = header.get(PREFIX + "layout_version")
     if version != str(LAYOUT_VERSION):
         raise LutError(f"{directory} holds tables of layout version {version}; this version reads layout "
-                       f"{LAYOUT_VERSION} (spectral tables with single Mie scattering apart): re-bake into an "
-                       "empty directory, or pass --overwrite to replace them")
+                       f"{LAYOUT_VERSION} (spectral tables with single Mie scattering apart): {remedy}")
 
 
 UNREADABLE = "unreadable files"

@@ -247,8 +247,12 @@ def load_inputs(path):
     except (OSError, KeyError, ValueError, TypeError, RecursionError) as exc:
         raise ValueError(f"{path}: not a pass-inputs file saved by the add-on ({exc})") from None
     for name, value in (("camera position", camera.position), ("camera rotation", camera.rotation),
-                        ("field of view", camera.tan_half_fov),
-                        ("sun direction", sun), ("shadow cascades", cascades.depths)):
+                        ("field of view", camera.tan_half_fov), ("sun direction", sun),
+                        ("shadow cascades", cascades.depths), ("cascades' light frame", cascades.frame),
+                        ("cascades' centres", cascades.centers), ("cascades' extents", cascades.halves),
+                        ("cascades' far depths", cascades.far_depths)):
         if not np.all(np.isfinite(np.asarray(value, dtype=np.float64))):
             raise ValueError(f"{path}: the {name} holds NaN or infinite values; export the inputs again")
+    if not camera.clip_end > 0.0:           # +inf (no clip end) is allowed, NaN and <= 0 are not
+        raise ValueError(f"{path}: the camera's clip end is {camera.clip_end}; export the inputs again")
     return camera, sun, cascades, settings, resolution

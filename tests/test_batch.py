@@ -158,6 +158,22 @@ def test_farm_render_of_damaged_tables_exits_1_before_any_frame(wired_blend, tmp
     assert not (tmp_path / "frames").exists() or not any((tmp_path / "frames").iterdir())
 
 
+def test_panel_names_damaged_tables(wired_blend):
+    """F12 in the UI cannot be stopped by the add-on: the panel shows the problem at its top."""
+    from test_addon_register import _draw
+    blend, directory = wired_blend
+    panel = bpy.types.OLS_PT_atmosphere
+    labels = [entry[1] for entry in _draw(panel, bpy.context.scene) if entry[0] == "label"]
+    assert not any("fail verification" in text for text in labels)
+    path = directory / "single_scattering.exr"
+    data = bytearray(path.read_bytes())
+    data[-100] ^= 1
+    path.write_bytes(bytes(data))
+    labels = [entry[1] for entry in _draw(panel, bpy.context.scene) if entry[0] == "label"]
+    assert labels[0] == "The tables fail verification:"
+    assert "single_scattering.exr" in " ".join(labels[1:]).replace(" ", "")
+
+
 def test_render_operator_refuses_damaged_tables(wired_blend, tmp_path, addon_package):
     blend, directory = wired_blend
     path = directory / "higher_order_scattering.exr"

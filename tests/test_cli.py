@@ -169,3 +169,59 @@ def test_sample_never_replaces_a_file_it_did_not_write(tmp_path):
         assert result.returncode == 0, result.stderr
     from lut_gen import cli
     assert cli.build_parser().parse_args(["sample"]).out == Path("build/sky_preview.png")
+
+
+def test_sample_into_another_bakes_folder_says_what_sample_can_do(tmp_path):
+    """Issue 9, item 11: sample suggested --overwrite, which it does not have, and only after
+    the whole bake. Now it refuses before baking, in its own words, and changes nothing."""
+    assert run("bake", "--out", str(tmp_path / "l"), *SMALL, "--quiet").returncode == 0
+    before = {p.name: p.read_bytes() for p in (tmp_path / "l").iterdir()}
+    result = run("sample", "--luts", str(tmp_path / "l"), "--out", str(tmp_path / "s.png"), *SMALL,
+                 "--aerosol-density", "2")
+    assert result.returncode == 1
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "holds a different bake" in lines[0], lines
+    assert "--overwrite" not in lines[0] and "--luts" in lines[0]
+    assert "single scattering" not in result.stderr                # refused before any stage
+    assert {p.name: p.read_bytes() for p in (tmp_path / "l").iterdir()} == before
+    assert not (tmp_path / "s.png").exists()
+
+
+def test_an_empty_out_is_a_usage_error_and_writes_nothing(tmp_path):
+    """Issue 9, item 7: --out "" baked into the current directory."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    result = subprocess.run([sys.executable, "-m", "lut_gen", "bake", "--out", "", *SMALL], capture_output=True,
+                            text=True, cwd=tmp_path, env=env, timeout=300)
+    assert result.returncode == 2 and "--out" in result.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_overwrite_into_a_damaged_copy_of_the_same_bake_bakes_it_again(tmp_path):
+    """Issue 9, item 3: with a damaged file, bake said "cache hit ... nothing to do", even with
+    --overwrite. Now it is baked again, and said so."""
+    assert run("bake", "--out", str(tmp_path / "l"), *SMALL, "--quiet").returncode == 0
+    path = tmp_path / "l" / "higher_order_scattering.exr"
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2] ^= 0x10
+    path.write_bytes(bytes(data))
+    for extra in (["--overwrite"], []):
+        result = run("bake", "--out", str(tmp_path / "l"), *SMALL, "--quiet", *extra)
+        assert result.returncode == 0, result.stderr
+        assert "cache hit" not in result.stdout and "baked" in result.stdout, (extra, result.stdout)
+        import lut_gen
+        lut_gen.load(tmp_path / "l")                               # whole again
+        path.write_bytes(bytes(data))
+
+
+def test_bake_does_not_hang_on_a_fifo_named_like_a_table(tmp_path):
+    """Issue 9, item 10: a FIFO named like a table made bake hang forever."""
+    assert run("bake", "--out", str(tmp_path / "l"), *SMALL, "--quiet").returncode == 0
+    (tmp_path / "l" / "optical_depth.exr").unlink()
+    os.mkfifo(tmp_path / "l" / "optical_depth.exr")
+    before = sorted(p.name for p in (tmp_path / "l").iterdir())
+    result = run("bake", "--out", str(tmp_path / "l"), *SMALL, "--quiet")       # run() times out at 300 s
+    assert result.returncode == 1
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "optical_depth.exr" in lines[0] and "not written by lut_gen" in lines[0], lines
+    assert sorted(p.name for p in (tmp_path / "l").iterdir()) == before
+    assert (tmp_path / "l" / "optical_depth.exr").is_fifo()

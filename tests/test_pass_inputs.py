@@ -75,3 +75,70 @@ def test_tiny_crops_give_finite_non_negative_light(luts_dir, tmp_path, size):
         with OpenEXR.File(str(out)) as exr:
             pixels = np.asarray(next(iter(exr.parts[0].channels.values())).pixels)
         assert np.isfinite(pixels).all() and pixels.min() >= 0.0, technique
+
+
+def test_a_depth_pass_of_another_size_is_refused(luts_dir, tmp_path, capsys):
+    """Issue 9, item 11: a Depth part of another size gave a numpy broadcast error."""
+    scene, inputs = scene_files(tmp_path, 32, 18)
+    passes = write_passes(tmp_path / "passes.exr", scene.image, scene.position, scene.depth)
+    with OpenEXR.File(str(passes), separate_channels=True) as exr:
+        channels = {name: np.asarray(c.pixels) for part in exr.parts for name, c in part.channels.items()}
+    channels["ViewLayer.Depth.Z"] = np.ascontiguousarray(channels["ViewLayer.Depth.Z"][:9, :16])
+    mixed = tmp_path / "mixed.exr"
+    display = ((0, 0), (31, 17))                                # every part shows the same window
+    parts = [OpenEXR.Part({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+                           "displayWindow": display,
+                           "dataWindow": ((0, 0), (15, 8)) if layer == "Depth" else display},
+                          {name: value for name, value in channels.items() if f".{layer}." in name}, name=layer)
+             for layer in ("Combined", "Position", "Depth")]
+    with OpenEXR.File(parts) as exr:
+        exr.write(str(mixed))
+    assert run_pass(luts_dir, mixed, inputs, tmp_path / "out.exr") == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and "passes differ in size" in err[0], err
+    assert "depth 16x9" in err[0] and not (tmp_path / "out.exr").exists()
+
+
+@pytest.mark.parametrize("field", ["centers", "halves", "far_depths", "frame", "camera_position", "clip_end"])
+def test_non_finite_inputs_are_refused(luts_dir, tmp_path, capsys, field):
+    """Issue 9, item 9: a NaN camera position gave an IndexError; every array of the inputs is
+    checked (the cascades' rectangles too), with one line naming it."""
+    scene, inputs = scene_files(tmp_path, 32, 18)
+    passes = write_passes(tmp_path / "passes.exr", scene.image, scene.position, scene.depth)
+    with np.load(inputs) as data:
+        arrays = {name: np.array(data[name]) for name in data.files}
+    arrays[field] = np.where(np.ones_like(arrays[field], dtype=bool), np.nan, arrays[field])
+    bad = tmp_path / "bad_inputs.npz"
+    np.savez(bad, **arrays)
+    assert run_pass(luts_dir, passes, bad, tmp_path / "out.exr") == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and "export the inputs again" in err[0], err
+    assert not (tmp_path / "out.exr").exists()
+
+
+def test_pass_steps_out_of_range_are_refused_before_any_work(luts_dir, tmp_path, capsys):
+    """Issue 9, item 9: --steps 1000000 ran out of memory (W x H x steps)."""
+    scene, inputs = scene_files(tmp_path, 32, 18)
+    passes = write_passes(tmp_path / "passes.exr", scene.image, scene.position, scene.depth)
+    assert cli.main(["pass", "--luts", str(luts_dir), "--passes", str(passes), "--inputs", str(inputs),
+                     "--steps", "1000000", "--out", str(tmp_path / "out.exr")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--steps" in err[0] and "256" in err[0], err
+    assert not (tmp_path / "out.exr").exists()
+
+
+def test_pass_with_tables_of_a_hostile_header_is_one_error_line(luts_dir, tmp_path, capsys):
+    """Issue 9, item 9: 100 000 nested brackets in ols.params gave a RecursionError from pass."""
+    import shutil
+    from test_exr_io import reseal, rewrite
+    hostile = tmp_path / "hostile"
+    shutil.copytree(luts_dir, hostile)
+    for name in exr_io.FILES.values():
+        rewrite(hostile / name, change_header=lambda h: h.update({"ols.params": "[" * 100_000}))
+    reseal(hostile)
+    scene, inputs = scene_files(tmp_path, 32, 18)
+    passes = write_passes(tmp_path / "passes.exr", scene.image, scene.position, scene.depth)
+    assert run_pass(hostile, passes, inputs, tmp_path / "out.exr") == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: "), err
+    assert "Traceback" not in "\n".join(err) and not (tmp_path / "out.exr").exists()

@@ -71,6 +71,19 @@ def build_light_shafts(scene, optical_image, params):
     frame_update.forget()           # new groups may read new (empty) images: write them again
 
 
+def table_problem(scene):
+    """Why the wired ``scene``'s tables must not render (LutError text naming the file and the
+    fix), or None: they verify (cached hashes, so this costs only stats)."""
+    key = scene.get(WIRED_KEY) if scene is not None else None
+    if not key:
+        return None
+    try:
+        luts.verify_wired(key)
+    except lut_gen.LutError as exc:
+        return str(exc)
+    return None
+
+
 def match_light_shaft_layout(scene) -> bool:
     """Rebuild the light-shaft groups when steps, modes, cascades, PCF, cascade search or the
     shadow-map resolution changed; True when rebuilt. Not while the shafts are off: their node
