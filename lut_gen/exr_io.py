@@ -127,12 +127,30 @@ def read_key(directory) -> Optional[str]:
     return _read_header(path).get(PREFIX + "bake_key")
 
 
+_header_key_cache = {}
+
+
+def _header_key(path: Path) -> Optional[str]:
+    """The bake key in the header of table ``path`` (pure Python, cached like the hashes)."""
+    info = manifest.regular_file_stat(path)
+    stamp = (str(path), info.st_dev, info.st_ino, info.st_size, info.st_mtime_ns)
+    if stamp not in _header_key_cache:
+        _header_key_cache[stamp] = _read_header(path).get(PREFIX + "bake_key")
+    return _header_key_cache[stamp]
+
+
 def verify_bake(directory, key: Optional[str] = None) -> str:
     """The bake key of ``directory`` when it holds one whole, undamaged bake (lut_gen.manifest:
-    every file present and hashing to the manifest written after the bake's last rename);
-    ``key``: and that it is this bake. Raises LutError naming the file and the fix."""
+    every file present and hashing to the manifest written after the bake's last rename, and
+    each file's own header naming that bake: a manifest written over files of several bakes
+    fails too); ``key``: and that it is this bake. Raises LutError naming the file and the fix."""
     try:
-        return manifest.verify(directory, FILES.values(), key)
+        found = manifest.verify(directory, FILES.values(), key)
+        for filename in FILES.values():
+            if _header_key(Path(directory) / filename) != found:
+                raise manifest.ManifestError(f"{Path(directory) / filename} comes from another bake than its "
+                                             f"manifest's ({found[:8]}): the directory mixes files of different bakes")
+        return found
     except manifest.ManifestError as exc:
         if not (Path(directory) / manifest.MANIFEST).exists() and (Path(directory) / FILES["multiple"]).exists():
             reason = (f"{directory} has no bake manifest: the bake there was interrupted, or made by an older "
@@ -145,7 +163,11 @@ def verify_bake(directory, key: Optional[str] = None) -> str:
 
 def is_intact(directory, key: str) -> bool:
     """Whether ``directory`` holds bake ``key``, whole and undamaged (see verify_bake)."""
-    return manifest.intact(directory, FILES.values(), key)
+    try:
+        verify_bake(directory, key)
+    except LutError:
+        return False
+    return True
 
 
 @contextmanager

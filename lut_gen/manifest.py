@@ -118,11 +118,3 @@ def verify(directory, filenames: Iterable[str], key: Optional[str] = None) -> st
             raise ManifestError(f"{directory / name} is damaged or comes from another bake "
                                 "(its bytes do not match the bake manifest)")
     return doc["bake_key"]
-
-
-def intact(directory, filenames: Iterable[str], key: str) -> bool:
-    try:
-        verify(directory, filenames, key)
-    except ManifestError:
-        return False
-    return True

@@ -114,6 +114,10 @@ def test_files_of_different_bakes_are_refused(saved, tmp_path):
     reseal(saved)
     with pytest.raises(LutError, match="mixes files of different bakes"):
         lut_gen.load(saved)
+    # The add-on verifies with verify_bake (no OpenEXR in Blender): each file's header key too.
+    with pytest.raises(LutError, match="higher_order_scattering.exr comes from another bake.*mixes files"):
+        lut_gen.exr_io.verify_bake(saved)
+    assert not lut_gen.exr_io.is_intact(saved, json.loads((saved / manifest.MANIFEST).read_text())["bake_key"])
 
 
 def test_a_hostile_header_is_an_error_not_a_crash(saved):
