@@ -158,6 +158,50 @@ def test_farm_render_of_damaged_tables_exits_1_before_any_frame(wired_blend, tmp
     assert not (tmp_path / "frames").exists() or not any((tmp_path / "frames").iterdir())
 
 
+def test_wired_blend_whose_tables_are_gone_and_cannot_be_baked_is_not_rendered(batch, wired_blend, tmp_path,
+                                                                               capsys, monkeypatch):
+    """Issue 9, item 1: with the tables deleted and the cache unwritable it rendered no sky, exit 0."""
+    blend, directory = wired_blend
+    for path in directory.glob("*.exr"):
+        path.unlink()
+    (tmp_path / "file").write_text("x")
+    monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "file" / "cache"))
+    out = tmp_path / "gone.png"
+    assert batch.main(render_args(blend, out)) == 1
+    line = error_line(capsys)
+    assert ".exr is missing" in line and "bake the tables again" in line
+    assert not out.exists()
+
+
+def test_render_operator_refuses_deleted_tables(wired_blend, tmp_path):
+    """Issue 9, item 1: ols.render after the table files were deleted said "Rendered"."""
+    blend, directory = wired_blend
+    for path in directory.glob("*.exr"):
+        path.unlink()
+    out = tmp_path / "op.png"
+    with pytest.raises(RuntimeError, match=r"\.exr is missing"):
+        bpy.ops.ols.render(filepath=str(out))
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("operator", ["bake_luts", "setup_scene"])
+def test_bake_tables_and_set_up_scene_repair_a_damaged_bake(wired_blend, addon_package, operator):
+    """Issue 9, items 2-3: with a bit-flipped table Bake Tables said "Tables ready" and Set Up
+    Scene kept failing until the folder was deleted. Both bake it again in place."""
+    blend, directory = wired_blend
+    wiring = import_module(addon_package.__name__ + ".addon.scene.wiring")
+    path = directory / "single_scattering.exr"
+    data = bytearray(path.read_bytes())
+    data[-100] ^= 1
+    path.write_bytes(bytes(data))
+    scene = bpy.context.scene
+    assert "single_scattering.exr" in wiring.table_problem(scene)
+    assert getattr(bpy.ops.ols, operator)(resolution="draft") == {"FINISHED"}
+    assert wiring.table_problem(scene) is None
+    assert path.read_bytes() != bytes(data)                        # baked again, in place
+    addon_package.lut_gen.load(directory)
+
+
 def test_panel_names_damaged_tables(wired_blend):
     """F12 in the UI cannot be stopped by the add-on: the panel shows the problem at its top."""
     from test_addon_register import _draw
