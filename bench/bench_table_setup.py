@@ -43,6 +43,7 @@ def main():
     def verified(cold):
         if cold:
             manifest._hash_cache.clear()
+            lut_gen.exr_io._header_key_cache.clear()
         images = luts_module.load_images(directory)
         for image in images.values():
             image.pixels[0]
