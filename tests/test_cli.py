@@ -225,3 +225,24 @@ def test_bake_does_not_hang_on_a_fifo_named_like_a_table(tmp_path):
     assert len(lines) == 1 and "optical_depth.exr" in lines[0] and "not written by lut_gen" in lines[0], lines
     assert sorted(p.name for p in (tmp_path / "l").iterdir()) == before
     assert (tmp_path / "l" / "optical_depth.exr").is_fifo()
+
+
+def test_two_bake_processes_into_one_folder_never_mix(tmp_path):
+    """Issue 9, item 6: two bakes with different parameters into one --out both exited 0, one
+    silently replacing the other. As two processes started together: one wins, the other exits
+    1 naming the bake that is there, and the folder verifies as the winner's."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    out = tmp_path / "shared"
+    runs = [subprocess.Popen([sys.executable, "-m", "lut_gen", "bake", "--out", str(out), *SMALL, "--quiet",
+                              "--aerosol-density", density], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True, cwd=ROOT, env=env) for density in ("1", "2")]
+    results = [(run.wait(timeout=300), *run.communicate()) for run in runs]
+    codes = sorted(code for code, _, _ in results)
+    assert codes == [0, 1], results
+    import lut_gen
+    loaded = lut_gen.load(out)
+    winner = lut_gen.exr_io.verify_bake(out)
+    loser_err = next(err for code, _, err in results if code == 1)
+    assert f"holds a different bake ({winner})" in loser_err and loser_err.strip().count("\n") == 0
+    winner_density = next(d for (code, _, _), d in zip(results, (1.0, 2.0)) if code == 0)
+    assert loaded.params.aerosol_density == winner_density

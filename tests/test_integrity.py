@@ -100,6 +100,31 @@ def test_a_bake_killed_between_renames_is_not_a_bake(baked, monkeypatch):
     assert not list(baked.glob(".*.tmp"))                     # its temporary files are gone
 
 
+def test_a_full_disk_while_writing_keeps_the_old_bake(baked, monkeypatch, capsys):
+    """Issue 9, item 9: a full disk while the new tables are written (OpenEXR raises a bare
+    RuntimeError) is one error line and exit 1 from the CLI; the old bake is left as it was,
+    byte for byte, and still verifies; no temporary file stays."""
+    from lut_gen import cli
+    before = snapshot(baked)
+    real_write, calls = exr_io._write_rgb, []
+
+    def filling_disk(OpenEXR, path, pixels, strings):
+        calls.append(path)
+        if len(calls) == 2:                       # the second table no longer fits
+            Path(path).write_bytes(b"\0" * 100)
+            raise RuntimeError(f"Error writing {path}: No space left on device")
+        return real_write(OpenEXR, path, pixels, strings)
+
+    monkeypatch.setattr(exr_io, "_write_rgb", filling_disk)
+    assert cli.main(["bake", "--out", str(baked), "--resolution", "8x16x8x4", "--orders", "2", "--quiet",
+                     "--aerosol-density", "3", "--overwrite"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and "No space left on device" in err[0], err
+    assert snapshot(baked) == before
+    exr_io.verify_bake(baked)
+    assert not list(baked.glob(".*.tmp"))
+
+
 def test_stale_temporaries_of_a_killed_bake_are_removed(baked):
     stale = baked / f".{FILES['single']}.abc123.tmp"
     stale.write_bytes(b"half a table")
