@@ -202,6 +202,52 @@ def test_bake_tables_and_set_up_scene_repair_a_damaged_bake(wired_blend, addon_p
     addon_package.lut_gen.load(directory)
 
 
+PLAIN_RENDER = """
+import sys
+import bpy
+bpy.ops.wm.open_mainfile(filepath=sys.argv[1])          # no add-on: what another machine does
+scene = bpy.context.scene
+scene.render.resolution_x, scene.render.resolution_y, scene.cycles.samples = 32, 18, 1
+scene.render.filepath = sys.argv[2]
+bpy.ops.render.render(write_still=True)
+"""
+
+
+def test_a_saved_blend_holds_no_temporary_path_and_writes_nothing_without_the_add_on(batch, wired_blend,
+                                                                                    tmp_path):
+    """Issue 9, item 8: the adaptation File Output node saved the system temporary folder in the
+    .blend; rendered without the add-on it wrote adapted_luminance_.exr there, following a link
+    planted under that name. After a render with light adaptation, the saved file holds no
+    temporary path, and a render of it without the add-on writes nothing there."""
+    import tempfile
+    blend, _ = wired_blend
+    bpy.context.scene.ols.light_adaptation = True
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    assert batch.main(render_args(blend, tmp_path / "adapted.png")) == 0
+    saved = tmp_path / "after.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(saved))
+    data = saved.read_bytes()
+    assert bpy.app.tempdir and bpy.app.tempdir.encode() not in data
+    assert b"ols_adaptation" not in data
+    shared = Path(tempfile.gettempdir())
+    target = tmp_path / "precious.txt"
+    target.write_text("keep me")
+    planted = shared / "adapted_luminance_.exr"
+    if planted.exists() or planted.is_symlink():
+        pytest.skip(f"{planted} exists already (another process's); not touching it")
+    planted.symlink_to(target)
+    try:
+        before = set(shared.glob("adapted_luminance_*"))
+        result = subprocess.run([sys.executable, "-c", PLAIN_RENDER, str(saved), str(tmp_path / "plain.png")],
+                                capture_output=True, text=True, timeout=600, cwd=str(tmp_path))
+        assert result.returncode == 0, result.stderr[-2000:]
+        assert (tmp_path / "plain.png").exists()
+        assert target.read_text() == "keep me"
+        assert set(shared.glob("adapted_luminance_*")) == before
+    finally:
+        planted.unlink()
+
+
 def test_panel_names_damaged_tables(wired_blend):
     """F12 in the UI cannot be stopped by the add-on: the panel shows the problem at its top."""
     from test_addon_register import _draw

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import os
 import struct
+import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -89,9 +90,22 @@ def read_exr_pixel(path) -> float:
 
 # -- the scene side -----------------------------------------------------------------------------
 
+_private_tempdir = {}
+
+
+def _session_tempdir() -> str:
+    """Blender's per-process temporary folder; where Blender has none, a private one of ours
+    (never the shared system folder: a link planted there would be followed)."""
+    if bpy.app.tempdir:
+        return bpy.app.tempdir
+    if "path" not in _private_tempdir:
+        _private_tempdir["path"] = tempfile.mkdtemp(prefix="ols_adaptation_")
+    return _private_tempdir["path"]
+
+
 def output_directory(scene) -> str:
     """Per scene and per session: Blender's temporary folder goes away when Blender exits."""
-    return os.path.join(bpy.app.tempdir or "/tmp", "ols_adaptation", bpy.path.clean_name(scene.name), "")
+    return os.path.join(_session_tempdir(), "ols_adaptation", bpy.path.clean_name(scene.name), "")
 
 
 def ensure_output_node(tree, tone_node):
