@@ -142,3 +142,14 @@ def test_pass_with_tables_of_a_hostile_header_is_one_error_line(luts_dir, tmp_pa
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: "), err
     assert "Traceback" not in "\n".join(err) and not (tmp_path / "out.exr").exists()
+
+
+def test_an_unwritable_out_is_named_before_any_work(luts_dir, tmp_path, capsys):
+    """Issue 9, item 11: --out errors named the temporary file, after the whole pass."""
+    scene, inputs = scene_files(tmp_path, 32, 18)
+    passes = write_passes(tmp_path / "passes.exr", scene.image, scene.position, scene.depth)
+    (tmp_path / "file").write_text("x")
+    out = tmp_path / "file" / "out.exr"                   # its folder is a file
+    assert run_pass(luts_dir, passes, inputs, out) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(out) in err[0] and ".tmp" not in err[0], err
