@@ -24,7 +24,6 @@ def measure(code_root: Path, combinations: int) -> dict:
     import importlib.util
     sys.path.insert(0, str(code_root))
     sys.path.insert(0, str(code_root / "tests"))      # its conftest imports its extension
-    import bpy
     import numpy as np
     from conftest import import_extension
     from render_util import render_rgb
@@ -36,20 +35,11 @@ def measure(code_root: Path, combinations: int) -> dict:
     os.environ["OLS_CACHE_DIR"] = tempfile.mkdtemp()
     pkg = import_extension()
     pkg.register()
-    batch = import_module(pkg.__name__ + ".addon.batch")
-    ops = import_module(pkg.__name__ + ".addon.ops")
-    wiring = import_module(pkg.__name__ + ".addon.scene.wiring")
     sun_lamps = import_module(pkg.__name__ + ".addon.scene.sun")
+    sys.path.insert(0, str(ROOT / "bench"))
+    from wired_sample import wired_sample
     out = Path(tempfile.mkdtemp())
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    args = batch.parse_args(["--sample", "--tables", "draft", "--resolution", f"{WIDTH}x{HEIGHT}",
-                             "--samples", "1", "--output", str(out / "x.png")])
-    scene = batch.prepare(args)
-    batch.apply_options(scene, args)
-    directory = ops.bake_if_needed(pkg.lut_gen.AtmosphereParams(), "draft")
-    wiring.wire_scene(scene, directory, [o for o in scene.objects if o.select_get()], resolution="draft")
-    scene.cycles.samples = 1
-    scene.render.use_persistent_data = True
+    scene, _ = wired_sample(pkg, out / "x.png", WIDTH, HEIGHT)
     render_rgb(scene, out / "warm.exr", composite=True)
     settings, sun = scene.ols, sun_lamps.find_sun(scene)
     rng = np.random.default_rng(FUZZ_SEED)

@@ -32,24 +32,13 @@ def measure(emission_sampling: str, repeat: int) -> dict:
     from conftest import import_extension
     pkg = import_extension()
     pkg.register()
-    batch = import_module(pkg.__name__ + ".addon.batch")
-    ops = import_module(pkg.__name__ + ".addon.ops")
-    wiring = import_module(pkg.__name__ + ".addon.scene.wiring")
     sun_lamps = import_module(pkg.__name__ + ".addon.scene.sun")
-    out = Path(tempfile.mkdtemp()) / "frame.png"
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    args = batch.parse_args(["--sample", "--tables", "draft", "--resolution", "64x36",
-                             "--samples", "1", "--output", str(out)])
-    scene = batch.prepare(args)
-    batch.apply_options(scene, args)
-    directory = ops.bake_if_needed(pkg.lut_gen.AtmosphereParams(), "draft")
-    terrain = [o for o in scene.objects if o.select_get()]
-    wiring.wire_scene(scene, directory, terrain, resolution="draft")
+    sys.path.insert(0, str(ROOT / "bench"))
+    from wired_sample import wired_sample
+    scene, terrain = wired_sample(pkg, Path(tempfile.mkdtemp()) / "frame.png")
     for obj in terrain:
         obj.active_material.cycles.emission_sampling = emission_sampling
     scene.ols.enable_light_shafts = False          # Blender's share, not the shafts' numpy work
-    scene.cycles.samples = 1
-    scene.render.use_persistent_data = True
     sun = sun_lamps.find_sun(scene)
 
     def render():
