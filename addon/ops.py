@@ -250,6 +250,10 @@ class OLS_OT_measure_adaptation(_OnWiredScene, bpy.types.Operator):
             self.report({"ERROR"}, "Compositing is off (Output Properties > Post Processing): the tone "
                                    "mapping does not run, so there is no adaptation to measure")
             return {"CANCELLED"}
+        problem = wiring.table_problem(scene)
+        if problem is not None:             # its pre-pass renders: refuse as the Render operator does
+            self.report({"ERROR"}, f"Cannot measure the light adaptation: {problem}")
+            return {"CANCELLED"}
         try:
             plan = adaptation_plan.build(scene, progress=print)
         except adaptation_plan.PlanError as exc:

@@ -228,9 +228,9 @@ class OLSSettings(bpy.types.PropertyGroup):
         name="Shadow Map Resolution",
         description=_d("shadow_map_resolution",
                        "Resolution of the sun shadow map (the number of cascades is set in the "
-                       "additional controls). Renders under 512 pixels on their larger side use at most "
-                       "the power of two at 8 texels per pixel of it: finer maps change nothing they "
-                       "can show"),
+                       "additional controls). A render uses at most the power of two at or above 8 "
+                       "texels per pixel of its larger side (4096 from 257 pixels up): finer maps "
+                       "change nothing it can show"),
         items=(
             ("512", "512 x 512", "512 x 512 shadow map"),
             ("1024", "1024 x 1024", "1024 x 1024 shadow map"),

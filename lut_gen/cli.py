@@ -175,10 +175,11 @@ def cmd_sample(args) -> int:
     if args.out.exists() and not written_by(args.out, PREVIEW_SOFTWARE):
         raise ValueError(f"{args.out} exists and was not written by python -m lut_gen sample; not replacing "
                          "it (pass another --out, or delete the file)")
-    if args.luts is not None and args.luts.is_dir():
-        # Before the bake, and in this command's words: sample has no --overwrite.
-        check_output_directory(args.luts, key_for(params, args.resolution, args.orders), option="--luts",
-                               can_overwrite=False)
+    key = key_for(params, args.resolution, args.orders)
+    if args.luts is not None and args.luts.is_dir() and not is_intact(args.luts, key):
+        # Before the bake, and in this command's words: sample has no --overwrite. (A folder
+        # holding this bake intact is only read: it may be a read-only shared one.)
+        check_output_directory(args.luts, key, option="--luts", can_overwrite=False)
     if not args.out.parent.exists():
         args.out.parent.mkdir(parents=True)
     luts, directory, hit = cached_bake(params, resolution=args.resolution, orders=args.orders,

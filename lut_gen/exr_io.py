@@ -130,6 +130,14 @@ def read_key(directory) -> Optional[str]:
 _header_key_cache = {}
 
 
+def _exists(path: Path) -> bool:
+    """Path.exists, False where the folder cannot be searched (PermissionError otherwise)."""
+    try:
+        return path.exists()
+    except OSError:
+        return False
+
+
 def _header_key(path: Path) -> Optional[str]:
     """The bake key in the header of table ``path`` (pure Python, cached like the hashes)."""
     info = manifest.regular_file_stat(path)
@@ -152,7 +160,7 @@ def verify_bake(directory, key: Optional[str] = None) -> str:
                                              f"manifest's ({found[:8]}): the directory mixes files of different bakes")
         return found
     except manifest.ManifestError as exc:
-        if not (Path(directory) / manifest.MANIFEST).exists() and (Path(directory) / FILES["multiple"]).exists():
+        if not _exists(Path(directory) / manifest.MANIFEST) and _exists(Path(directory) / FILES["multiple"]):
             reason = (f"{directory} has no bake manifest: the bake there was interrupted, or made by an older "
                       "version")
         else:
@@ -243,8 +251,13 @@ def save(luts: Luts, directory, *, overwrite: bool = False) -> Path:
     directory = Path(directory)
     key = luts_key(luts)
     with locked(check_output_directory(directory, key, overwrite=overwrite)):
-        # Again under the lock: a bake that finished meanwhile may have put another bake here.
+        # Again under the lock: a bake that finished meanwhile may have put another bake here,
+        # or this very bake: then nothing is rewritten (farm workers sharing a cold cache each
+        # bake; rewriting the folder under a worker that already verified it, and renders from
+        # it, would withdraw its manifest mid-render).
         check_output_directory(directory, key, overwrite=overwrite)
+        if is_intact(directory, key):
+            return directory
         _remove_stale_temporaries(directory)
         _write_tables(OpenEXR, directory, key, luts)
     return directory

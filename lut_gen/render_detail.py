@@ -19,7 +19,8 @@ costs seconds a frame and changes nothing a pixel can hold:
   pixel's footprint; finer maps only resample the same shafts.
 
 The caps apply only to renders smaller than the settings need: 2048 slices x 2048 samples
-and 4096-texel maps are all used from 1024 x 576 pixels up (shadow maps from 512 pixels up).
+and 4096-texel maps are all used from 1024 x 576 pixels up (4096-texel maps from 257 pixels on the
+larger side up, 2048 from 129).
 """
 from __future__ import annotations
 

@@ -264,6 +264,21 @@ def test_panel_names_damaged_tables(wired_blend):
     assert "single_scattering.exr" in " ".join(labels[1:]).replace(" ", "")
 
 
+def test_measure_light_adaptation_refuses_damaged_tables(wired_blend):
+    """Its pre-pass renders: with damaged tables it reports them instead (headless, the render's
+    start would end the process)."""
+    blend, directory = wired_blend
+    scene = bpy.context.scene
+    scene.ols.light_adaptation = True
+    path = directory / "optical_depth.exr"
+    data = bytearray(path.read_bytes())
+    data[-100] ^= 1
+    path.write_bytes(bytes(data))
+    with pytest.raises(RuntimeError, match="optical_depth.exr"):
+        bpy.ops.ols.measure_adaptation()
+    assert "ols_adaptation_plan" not in scene
+
+
 def test_render_operator_refuses_damaged_tables(wired_blend, tmp_path, addon_package):
     blend, directory = wired_blend
     path = directory / "higher_order_scattering.exr"

@@ -246,3 +246,15 @@ def test_two_bake_processes_into_one_folder_never_mix(tmp_path):
     assert f"holds a different bake ({winner})" in loser_err and loser_err.strip().count("\n") == 0
     winner_density = next(d for (code, _, _), d in zip(results, (1.0, 2.0)) if code == 0)
     assert loaded.params.aerosol_density == winner_density
+
+
+def test_sample_reads_a_read_only_folder_that_holds_its_bake(tmp_path, monkeypatch, capsys):
+    """sample's early check of --luts must not refuse a shared, read-only folder holding the
+    very bake it wants: that folder is only read. (The test runs as root here, for whom every
+    folder is writable: the folder is made to read as unwritable.)"""
+    from lut_gen import cli
+    assert run("bake", "--out", str(tmp_path / "l"), *SMALL, "--quiet").returncode == 0
+    monkeypatch.setattr(os, "access", lambda *args, **kwargs: False)
+    assert cli.main(["sample", "--luts", str(tmp_path / "l"), "--out", str(tmp_path / "s.png"), *SMALL,
+                     "--quiet"]) == 0, capsys.readouterr().err
+    assert "cache hit" in capsys.readouterr().out and (tmp_path / "s.png").exists()

@@ -125,6 +125,16 @@ def test_a_full_disk_while_writing_keeps_the_old_bake(baked, monkeypatch, capsys
     assert not list(baked.glob(".*.tmp"))
 
 
+def test_saving_a_bake_over_an_intact_copy_of_itself_rewrites_nothing(baked):
+    """Farm workers sharing a cold cache each bake the same tables: the one that saves last must
+    not rewrite (and so withdraw the manifest of) a folder another worker renders from."""
+    stamps = {p.name: p.stat().st_mtime_ns for p in baked.iterdir()}
+    luts = lut_gen.bake(lut_gen.AtmosphereParams(), **SMALL)
+    exr_io.save(luts, baked, overwrite=True)
+    assert {p.name: p.stat().st_mtime_ns for p in baked.iterdir()} == stamps
+    exr_io.verify_bake(baked)
+
+
 def test_stale_temporaries_of_a_killed_bake_are_removed(baked):
     stale = baked / f".{FILES['single']}.abc123.tmp"
     stale.write_bytes(b"half a table")

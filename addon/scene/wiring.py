@@ -79,7 +79,7 @@ def table_problem(scene):
         return None
     try:
         luts.verify_wired(key)
-    except lut_gen.LutError as exc:
+    except (lut_gen.LutError, OSError) as exc:
         return str(exc)
     return None
 
