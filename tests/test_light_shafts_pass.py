@@ -254,6 +254,9 @@ def test_bad_scenes_render_without_nan_and_say_why(addon_package, tmp_path, monk
     again = render_rgb(scene, tmp_path / "again.exr", composite=True)
     np.testing.assert_allclose(again, brute, rtol=1e-4, atol=1e-6)
     scene.ols.scattering_technique = "EPIPOLAR_SAMPLING"
+    back = render_rgb(scene, tmp_path / "back.exr", composite=True)     # the atlas is dropped again
+    assert shadow_maps.ATLAS_IMAGE not in bpy.data.images and shadow_maps.PARAMETER_IMAGE not in bpy.data.images
+    np.testing.assert_allclose(back, good, rtol=1e-4, atol=1e-6)
 
     # Sun below the horizon: twilight, finite and non-negative.
     sun_mod = import_module(addon_package.__name__ + ".addon.scene.sun")

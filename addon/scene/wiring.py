@@ -64,8 +64,12 @@ def build_light_shafts(scene, optical_image, params):
     atlas, table = None, None
     if layout.reads_shadow_maps:
         atlas, table = shadow_maps.ensure_images(int(settings.shadow_map_resolution), settings.num_cascades)
+    elif not frame_update.rendering():
+        # Nothing reads the atlas now (up to 512 MiB at 6 x 4096): drop it, but never under a
+        # running render, whose copy of the compositor may still hold the old groups.
+        shadow_maps.remove_images()
     else:
-        shadow_maps.release_buffer()            # nothing packs an atlas while the compositor reads none
+        shadow_maps.release_buffer()
     nodes.build_light_shaft_groups(optical_image, atlas, table, params, layout,
                                    epipolar_tables.ensure_images(layout, settings))
     frame_update.forget()           # new groups may read new (empty) images: write them again
