@@ -197,12 +197,10 @@ class OLS_OT_render(bpy.types.Operator):
         if sun_lamps.find_sun(scene) is None:
             self.report({"ERROR"}, "The scene has no Sun lamp: run Set Up Scene")
             return {"CANCELLED"}
-        if scene.get(wiring.WIRED_KEY):
-            try:
-                luts.verify_wired(scene[wiring.WIRED_KEY])
-            except lut_gen.LutError as exc:
-                self.report({"ERROR"}, f"Not rendering: {exc}")
-                return {"CANCELLED"}
+        problem = wiring.table_problem(scene)
+        if problem is not None:
+            self.report({"ERROR"}, f"Not rendering: {problem}")
+            return {"CANCELLED"}
         try:
             path = render_path(self.filepath)
         except ValueError as exc:
@@ -398,13 +396,9 @@ def on_file_loaded(*_args):
     wiring.forget_caches()
     for scene in bpy.data.scenes:
         key = scene.get(wiring.WIRED_KEY)
-        if not key:
+        problem = wiring.table_problem(scene)
+        if problem is None:             # not wired, or its tables verify
             continue
-        try:
-            luts.verify_wired(key)
-            continue
-        except lut_gen.LutError as exc:
-            problem = exc
         if packed_tables.is_packed(key):
             try:
                 directory = packed_tables.restore(key)

@@ -219,13 +219,11 @@ def _eq8(luts, start, end, direction, sun, table, start_transmittance, end_trans
     ``start`` and ``direction`` may have a size-1 axis that ``end`` spans (many distances
     along one ray: the start's look-up is made once); ``phase_free`` as Luts.sky_radiance, and
     then ``table`` may be a tuple of names: a tuple of results, from shared look-ups."""
-    if isinstance(table, tuple):
-        return _eq8_tables(luts, start, end, direction, sun, table, start_transmittance, end_transmittance)
-    return _eq8_tables(luts, start, end, direction, sun, table, start_transmittance, end_transmittance,
-                       phase_free)[0]
+    results = _eq8_tables(luts, start, end, direction, sun, table, start_transmittance, end_transmittance, phase_free)
+    return results if isinstance(table, tuple) else results[0]
 
 
-def _eq8_tables(luts, start, end, direction, sun, table, start_transmittance, end_transmittance, phase_free=True):
+def _eq8_tables(luts, start, end, direction, sun, table, start_transmittance, end_transmittance, phase_free):
     """_eq8 of each table of ``table`` (a name or a tuple of names), as a tuple."""
     several = isinstance(table, tuple)
 

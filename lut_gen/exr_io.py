@@ -140,8 +140,7 @@ def _exists(path: Path) -> bool:
 
 def _header_key(path: Path) -> Optional[str]:
     """The bake key in the header of table ``path`` (pure Python, cached like the hashes)."""
-    info = manifest.regular_file_stat(path)
-    stamp = (str(path), info.st_dev, info.st_ino, info.st_size, info.st_mtime_ns)
+    stamp = manifest.file_stamp(path)
     if stamp not in _header_key_cache:
         _header_key_cache[stamp] = _read_header(path).get(PREFIX + "bake_key")
     return _header_key_cache[stamp]

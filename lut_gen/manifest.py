@@ -50,11 +50,17 @@ def bytes_sha256(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
+def file_stamp(path) -> tuple:
+    """What identifies this version of a regular file (path, device, inode, size, mtime): the
+    key of the caches that spare re-reading an unchanged table."""
+    info = regular_file_stat(Path(path))
+    return (str(path), info.st_dev, info.st_ino, info.st_size, info.st_mtime_ns)
+
+
 def file_sha256(path) -> str:
     """SHA-256 of a regular file's bytes (cached by device, inode, size and mtime)."""
     path = Path(path)
-    info = regular_file_stat(path)
-    stamp = (str(path), info.st_dev, info.st_ino, info.st_size, info.st_mtime_ns)
+    stamp = file_stamp(path)
     cached = _hash_cache.get(stamp)
     if cached is not None:
         return cached
