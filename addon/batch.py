@@ -217,7 +217,7 @@ def render(scene, args):
     file_format = output_format(output)
     frames = parse_frames(args.frames) if args.frames else None
     try:
-        lut_gen.atomic.probe_writable(output)
+        lut_gen.store.atomic.probe_writable(output)
     except OSError as exc:
         raise BatchError(f"cannot write {output}: {exc.strerror or exc}") from None
     set_output_format(scene, file_format)

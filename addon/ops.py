@@ -23,13 +23,13 @@ RESOLUTION_ITEMS = [("default", "Default", "The sample's 32 x 128 x 64 x 16 tabl
 
 
 def bake_directory(params, resolution="default") -> Path:
-    return lut_gen.cache.cache_directory(params, resolution)
+    return lut_gen.store.cache.cache_directory(params, resolution)
 
 
 def bake_if_needed(params, resolution, progress=None) -> Path:
     """The cache folder of these tables, baked first when it does not hold them (a damaged
     or foreign bake there is replaced: the folder is named by the key)."""
-    return lut_gen.cache.bake_into(params, resolution=resolution, progress=progress, overwrite=True)[0]
+    return lut_gen.store.cache.bake_into(params, resolution=resolution, progress=progress, overwrite=True)[0]
 
 
 def terrain_candidates(context):
@@ -39,7 +39,7 @@ def terrain_candidates(context):
 def swap_in(scene, directory):
     """Point an already wired scene at another bake (after a re-bake): rebuild the groups."""
     wiring.build_groups(directory, scene.render.engine)
-    scene[wiring.WIRED_KEY] = lut_gen.exr_io.verify_bake(directory)   # verified by build_groups: cached
+    scene[wiring.WIRED_KEY] = lut_gen.store.exr_io.verify_bake(directory)   # verified by build_groups: cached
     wiring.refresh(scene, force=True)
     luts.release_unused_images()
 
@@ -93,7 +93,7 @@ class OLS_OT_bake_luts(bpy.types.Operator):
             self.report({"ERROR"}, f"Invalid atmosphere setting: {exc}")
             return {"CANCELLED"}
         directory = bake_directory(self._params, self.resolution)
-        if lut_gen.exr_io.is_intact(directory, directory.name):
+        if lut_gen.store.exr_io.is_intact(directory, directory.name):
             return self._finish(context, directory)
         self._state = {"stage": "starting", "fraction": 0.0, "error": None, "done": False}
 
@@ -162,7 +162,7 @@ class OLS_OT_setup_scene(bpy.types.Operator):
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
         directory = bake_directory(params, self.resolution)
-        if not lut_gen.exr_io.is_intact(directory, directory.name):
+        if not lut_gen.store.exr_io.is_intact(directory, directory.name):
             # Not baked yet (or damaged): bake in the background, then set up.
             return bpy.ops.ols.bake_luts("INVOKE_DEFAULT", resolution=self.resolution, setup_after=True)
         return self.execute(context)
@@ -207,7 +207,7 @@ class OLS_OT_render(bpy.types.Operator):
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
         try:
-            lut_gen.atomic.probe_writable(path)
+            lut_gen.store.atomic.probe_writable(path)
         except OSError as exc:
             self.report({"ERROR"}, f"Cannot write {path}: {exc.strerror or exc}")
             return {"CANCELLED"}

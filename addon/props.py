@@ -13,9 +13,8 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty
 
-from ..lut_gen import render_detail
-from ..lut_gen.atmosphere import (DEFAULT_GROUND_ALBEDO, DEFAULT_RAYLEIGH_SCATTERING,
-                                  AtmosphereParams, preset)
+from ..lut_gen.passes import render_detail
+from ..lut_gen.model.atmosphere import (DEFAULT_GROUND_ALBEDO, DEFAULT_RAYLEIGH_SCATTERING, AtmosphereParams, preset)
 
 CONTROL_SETS = ("BASIC", "ADDITIONAL", "TONE_MAPPING")
 
@@ -120,7 +119,7 @@ _LIVE_NOW = {
 }
 LATER_ISSUE = frozenset(name for names in PROPERTIES_BY_SET.values() for name in names) - _LIVE_NOW
 
-# Why each greyed control has no effect in this version's epipolar design (lut_gen.epipolar).
+# Why each greyed control has no effect in this version's epipolar design (lut_gen.passes.epipolar).
 LATER_NOTES = {
     "optimize_sample_locations": "(no effect: samples are spaced by angle from the sun, so short epipolar "
                                  "lines are not oversampled)",
@@ -594,7 +593,7 @@ def safe_value(settings, name: str):
 class Sanitized:
     """scene.ols as the render reads it: every number through safe_value, and the shadow-map
     resolution, epipolar slices and samples capped at what the scene's render size can resolve
-    (lut_gen.render_detail)."""
+    (lut_gen.passes.render_detail)."""
 
     def __init__(self, settings):
         self._settings = settings
@@ -627,7 +626,7 @@ def _f32_color(color):
 def atmosphere_params(settings) -> AtmosphereParams:
     """Table parameters (``lut_gen.AtmosphereParams``) for an ``OLSSettings``.
 
-    The Atmosphere preset picks the starting point (lut_gen.atmosphere.PRESETS); aerosol density
+    The Atmosphere preset picks the starting point (lut_gen.model.atmosphere.PRESETS); aerosol density
     and absorption map one to one; ground albedo and ozone column apply to the Clear Sky preset
     (Sample 2013 has neither). With custom scattering coefficients on, the Rayleigh coefficients
     are ``max(default Rayleigh) * rayleigh_color`` (so the default colour gives the default

@@ -24,7 +24,7 @@ def sample_triangles():
     """(triangles, camera, sun direction, near, far) of the sample scene, built with bpy."""
     import bpy
     from sample_blend import build_sample
-    from lut_gen.shadow_map import Camera
+    from lut_gen.passes.shadow_map import Camera
     bpy.ops.wm.read_factory_settings(use_empty=True)
     objects = build_sample.build_sample_scene(bpy.context.scene, elevation_deg=15.0, azimuth_deg=35.0)
     bpy.context.view_layer.update()          # matrix_world of the new camera and sun
@@ -50,7 +50,7 @@ def sample_triangles():
 
 
 def baseline_module(revision):
-    source = subprocess.run(["git", "show", f"{revision}:lut_gen/shadow_map.py"], cwd=ROOT, check=True,
+    source = subprocess.run(["git", "show", f"{revision}:lut_gen/passes/shadow_map.py"], cwd=ROOT, check=True,
                             capture_output=True, text=True).stdout
     path = Path(tempfile.mkdtemp()) / "baseline_shadow_map.py"
     path.write_text(source)
@@ -76,7 +76,7 @@ def main():
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--resolution", type=int, default=1024)
     args = parser.parse_args()
-    from lut_gen import shadow_map
+    from lut_gen.passes import shadow_map
     triangles, camera, sun, near, far = sample_triangles()
     call = (triangles, camera, sun, args.resolution, 6, 0.95, near, far)
     baseline, old = best_time(baseline_module(args.baseline), call, args.repeat)

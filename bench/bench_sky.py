@@ -88,11 +88,11 @@ def main():
     print("  goal: OLS Sky <= 1.5x the Sky Texture")
 
     # LUT upload: the default set as Blender images.
-    directory = Path(os.environ["OLS_CACHE_DIR"]) / lut_gen.cache.key_for(lut_gen.AtmosphereParams())
+    directory = Path(os.environ["OLS_CACHE_DIR"]) / lut_gen.store.cache.key_for(lut_gen.AtmosphereParams())
     luts = lut_gen.load(directory)
     start = time.perf_counter()
     for table in ("single", "higher", "multiple"):
-        rgb = lut_gen.atlas.pack(luts.table(table))
+        rgb = lut_gen.tables.atlas.pack(luts.table(table))
         height, width, _ = rgb.shape
         rgba = np.empty((height, width, 4), np.float32)
         rgba[..., :3] = rgb

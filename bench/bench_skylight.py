@@ -1,7 +1,7 @@
 """What a sun move costs the world-lighting panoramas (addon/scene/skylight.py): the sky and
 ground panoramas for the default tables computed per pixel with Luts.sky_radiance and
 Luts.ground_radiance, tables re-packed on every call (the baseline: what skylight did before),
-the same with the packed tables kept (Luts.keep_packed), and lut_gen.panorama, side by side in
+the same with the packed tables kept (Luts.keep_packed), and lut_gen.passes.panorama, side by side in
 one run, with the largest difference from the baseline.
 
     .venv/bin/python bench/bench_skylight.py [--repeat 5] [--height 500] [--elevation 10]
@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 import lut_gen  # noqa: E402
-from lut_gen import panorama  # noqa: E402
+from lut_gen.passes import panorama  # noqa: E402
 
 SIZE = (512, 256)               # addon/scene/skylight.py's
 
@@ -56,14 +56,14 @@ def main():
     parser.add_argument("--height", type=float, default=500.0, help="camera height (m)")
     parser.add_argument("--elevation", type=float, default=10.0, help="sun elevation (deg)")
     args = parser.parse_args()
-    directory, _ = lut_gen.cache.bake_into(lut_gen.AtmosphereParams())
+    directory, _ = lut_gen.store.cache.bake_into(lut_gen.AtmosphereParams())
     luts = lut_gen.load(directory)
     packed = dataclasses.replace(luts, _packed=None).keep_packed()
     e = np.radians(args.elevation)
     sun = np.array([0.6 * np.cos(e), 0.8 * np.cos(e), np.sin(e)])
     rows = {"per-pixel look-ups, re-packed (baseline)": lambda: per_pixel(luts, sun, args.height),
             "per-pixel look-ups, packed kept": lambda: per_pixel(packed, sun, args.height),
-            "lut_gen.panorama, packed kept": lambda: fast(packed, sun, args.height)}
+            "lut_gen.passes.panorama, packed kept": lambda: fast(packed, sun, args.height)}
     results = {}
     for name, run in rows.items():
         run()                   # the first call packs the kept tables (once per bake in the add-on)

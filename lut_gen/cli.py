@@ -7,12 +7,12 @@ import sys
 import time
 from pathlib import Path
 
-from .atmosphere import PRESETS, AtmosphereParams, preset
-from .bake import RESOLUTIONS, bake
-from .cache import cached_bake, default_cache_root, key_for
-from .aerial import MULTIPLE_MODES, SINGLE_MODES
-from .atomic import probe_writable
-from .exr_io import LutError, check_output_directory, is_intact, load, read_key, removed_if_left_empty, save
+from .model.atmosphere import PRESETS, AtmosphereParams, preset
+from .tables.bake import RESOLUTIONS, bake
+from .store.cache import cached_bake, default_cache_root, key_for
+from .passes.aerial import MULTIPLE_MODES, SINGLE_MODES
+from .store.atomic import probe_writable
+from .store.exr_io import (LutError, check_output_directory, is_intact, load, read_key, removed_if_left_empty, save)
 
 EXIT_ERROR = 1
 
@@ -168,8 +168,8 @@ PREVIEW_SOFTWARE = "lut_gen sample"
 
 
 def cmd_sample(args) -> int:
-    from .png import to_srgb8, write_png, written_by
-    from .preview import DEFAULT_SUN_ELEVATIONS, preview_image
+    from .store.png import to_srgb8, write_png, written_by
+    from .passes.preview import DEFAULT_SUN_ELEVATIONS, preview_image
 
     params = params_from_args(args)
     if args.out.exists() and not written_by(args.out, PREVIEW_SOFTWARE):
@@ -191,8 +191,8 @@ def cmd_sample(args) -> int:
 
 
 def cmd_pass(args) -> int:
-    from .exr_io import write_rgb
-    from .scattering_pass import check_passes_match, load_inputs, load_render_passes, scattering_pass
+    from .store.exr_io import write_rgb
+    from .passes.scattering_pass import check_passes_match, load_inputs, load_render_passes, scattering_pass
 
     check_writable(args.out)            # before the work, naming the file asked for
     passes = load_render_passes(args.passes)

@@ -30,8 +30,8 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 import lut_gen  # noqa: E402
-from lut_gen import spectrum  # noqa: E402
-from lut_gen.png import to_srgb8, write_png  # noqa: E402
+from lut_gen.model import spectrum  # noqa: E402
+from lut_gen.store.png import to_srgb8, write_png  # noqa: E402
 
 SUN_ELEVATIONS = (60.0, 20.0, 5.0, 1.0, -2.0, -6.0)
 CAMERA_HEIGHT_M = 2.0

@@ -73,5 +73,5 @@ def save_png(path: Path, rgb: np.ndarray, exposure: float):
     root = Path(__file__).resolve().parent.parent
     if str(root) not in sys.path:
         sys.path.insert(0, str(root))
-    from lut_gen.png import to_srgb8, write_png
+    from lut_gen.store.png import to_srgb8, write_png
     write_png(path, to_srgb8(1 - np.exp(-rgb * exposure)))

@@ -1,11 +1,12 @@
-"""Aerial perspective and light shafts from the tables (lut_gen.aerial) against brute force and
+"""Aerial perspective and light shafts from the tables (lut_gen.passes.aerial) against brute force and
 the energy identities the issue asks for."""
 import numpy as np
 import pytest
 
 import lut_gen
-from lut_gen import aerial, reference
-from lut_gen.atmosphere import densities
+from lut_gen.passes import aerial
+from lut_gen.verify import reference
+from lut_gen.model.profiles import densities
 
 P = lut_gen.AtmosphereParams()
 CAMERA = np.array([0.0, 0.0, 2.0])

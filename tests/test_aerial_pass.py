@@ -1,5 +1,5 @@
 """The "OLS Aerial Perspective" compositor group on a Cycles render of the sample vs its numpy
-twin, lut_gen.aerial.aerial_perspective, fed the same render passes."""
+twin, lut_gen.passes.aerial.aerial_perspective, fed the same render passes."""
 from importlib import import_module
 
 import numpy as np
@@ -74,7 +74,7 @@ def test_aerial_perspective_pass_matches_twin(addon_package, tmp_path, monkeypat
 
     geometry = depth < 1e9
     assert geometry.mean() > 0.3 and (~geometry).mean() > 0.1           # terrain and sky in view
-    twin = pkg.lut_gen.aerial.aerial_perspective(luts, camera, position[geometry], raw[geometry], sun,
+    twin = pkg.lut_gen.passes.aerial.aerial_perspective(luts, camera, position[geometry], raw[geometry], sun,
                                                  sun_strength=10.0, scattering_scale=0.5)
     err = np.abs(seen[geometry] - twin) / np.maximum(twin, 1e-6)
     print("aerial pass vs twin: median", np.median(err), "p99", np.percentile(err, 99), "max", err.max())
@@ -150,6 +150,6 @@ def test_segment_transmittance_just_below_the_horizon_matches_twin(addon_package
             return node.outputs["Out"]
         compositor_output(scene, probe)
         seen = render_rgb(scene, tmp_path / "probe.exr", composite=True)[0, 0]
-        twin = pkg.lut_gen.aerial.segment_transmittance(luts, start, end)
+        twin = pkg.lut_gen.passes.aerial.segment_transmittance(luts, start, end)
         assert twin.max() < 0.97                                  # a kilometre of air near the ground
         np.testing.assert_allclose(seen, twin, rtol=2e-4, err_msg=f"cos {cos_view}")

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from lut_gen import AtmosphereParams
-from lut_gen.atmosphere import PRESETS, densities, mie_phase, ozone_density, preset, rayleigh_phase
+from lut_gen.model.atmosphere import PRESETS, mie_phase, preset, rayleigh_phase
+from lut_gen.model.profiles import densities, ozone_density
 
 SAMPLE = preset("sample-2013")
 

@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 
 import lut_gen
-from lut_gen import AtmosphereParams, reference
-from lut_gen import parameterization as par
-from lut_gen.atmosphere import mie_phase, rayleigh_phase
+from lut_gen import AtmosphereParams
+from lut_gen.verify import reference
+from lut_gen.tables import parameterization as par
+from lut_gen.model.atmosphere import mie_phase, rayleigh_phase
 
 P = AtmosphereParams()
 # Radiance per unit sun below which a relative error is meaningless: five decades under the
@@ -238,7 +239,7 @@ def test_horizon_seam_is_continuous_for_a_consistent_flag(default_luts):
 
 
 def test_transmittance_to_top_matches_reference(default_luts):
-    """The run-time RGB transmittance (fitted extinction, lut_gen.spectrum) against the RGB of
+    """The run-time RGB transmittance (fitted extinction, lut_gen.model.spectrum) against the RGB of
     the sun's spectrum attenuated per wavelength."""
     rng = np.random.default_rng(9)
     h = rng.uniform(0, 30_000, 600)
@@ -304,7 +305,7 @@ def test_optical_depth_table_matches_reference(default_luts):
     zenith to the horizon. Measured: Rayleigh and Mie within 0.2%, ozone within 0.6% (near the
     horizon). The trapezoid
     rule on 48 nodes had Mie 1% high, which a low sun's transmittance multiplies ~20-fold."""
-    from lut_gen.sampling import table_net_density
+    from lut_gen.tables.optical_depth import table_net_density
     rng = np.random.default_rng(8)
     h = 30_000.0 * rng.uniform(0, 1, 300) ** 2
     cos_zenith = rng.uniform(0.01, 1.0, 300)

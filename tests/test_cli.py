@@ -139,7 +139,7 @@ def test_sample_preset_bakes_the_samples_media(tmp_path):
 def test_old_layout_directory_is_refused_and_kept(tmp_path):
     """A directory baked by an older version (layout 1) is named as such; nothing is changed."""
     assert run("bake", "--out", str(tmp_path / "l"), *SMALL, "--quiet").returncode == 0
-    from lut_gen import exr_io
+    from lut_gen.store import exr_io
     path = tmp_path / "l" / exr_io.FILES["multiple"]
     data = path.read_bytes()
     marker = f'{exr_io.PREFIX}layout_version'.encode()
@@ -241,7 +241,7 @@ def test_two_bake_processes_into_one_folder_never_mix(tmp_path):
     assert codes == [0, 1], results
     import lut_gen
     loaded = lut_gen.load(out)
-    winner = lut_gen.exr_io.verify_bake(out)
+    winner = lut_gen.store.exr_io.verify_bake(out)
     loser_err = next(err for code, _, err in results if code == 1)
     assert f"holds a different bake ({winner})" in loser_err and loser_err.strip().count("\n") == 0
     winner_density = next(d for (code, _, _), d in zip(results, (1.0, 2.0)) if code == 0)

@@ -1,4 +1,4 @@
-"""Epipolar sampling (lut_gen.epipolar) against brute-force ray marching on scenes built here in
+"""Epipolar sampling (lut_gen.passes.epipolar) against brute-force ray marching on scenes built here in
 numpy: a ground plane with thin occluders (a row of pillars, a fence of posts) against a low
 sun, the sun in front of, behind and beside the camera, odd image sizes. Both techniques use
 the same shadow cascades, steps and modes; the images are compared in display values through
@@ -6,8 +6,8 @@ one fixed exposure curve."""
 import numpy as np
 import pytest
 
-from lut_gen import aerial, epipolar, scattering_pass, shadow_map
-from lut_gen.shadow_map import Camera
+from lut_gen.passes import aerial, epipolar, scattering_pass, shadow_map
+from lut_gen.passes.shadow_map import Camera
 
 SUN_STRENGTH, SCALE = 10.0, 0.5
 
@@ -264,8 +264,8 @@ def test_each_epipolar_control_changes_the_picture(draft_luts):
 @pytest.mark.parametrize("resolution", [256, 250])        # 250: blocks padded at the edge
 @pytest.mark.parametrize("smooth", [True, False])
 def test_min_max_maps_give_the_same_shadow_test(smooth, resolution):
-    """lut_gen.min_max skips decided points' taps; its answer is shadow_map.visibility's."""
-    from lut_gen import min_max
+    """lut_gen.passes.min_max skips decided points' taps; its answer is shadow_map.visibility's."""
+    from lut_gen.passes import min_max
     scene = Scene(pillars() + fence(), CAMERA, sun_at(7.0, 10.0), 32, 18, resolution=resolution)
     rng = np.random.default_rng(4)
     points = rng.uniform([-400.0, 0.0, 0.0], [400.0, 600.0, 150.0], (20_000, 3))
@@ -286,7 +286,8 @@ def test_min_max_optimization_changes_speed_not_the_picture(draft_luts):
 
 def ground_distance(radius, camera, directions):
     """Distance from the camera to the (spherical) ground along ``directions``, inf where they miss it."""
-    from lut_gen import geometry, parameterization
+    from lut_gen.model import geometry
+    from lut_gen.tables import parameterization
     centre = camera + np.array([0.0, 0.0, radius])
     r = np.linalg.norm(centre)
     cos_zenith = directions @ (centre / r)
@@ -296,12 +297,12 @@ def ground_distance(radius, camera, directions):
 
 @pytest.mark.parametrize("elevation, azimuth", [(5.0, 0.0), (25.0, 150.0)])
 def test_in_scattering_tables_match_eq8_per_pixel(draft_luts, elevation, azimuth):
-    """lut_gen.epipolar_air: a lit section's in-scattering I(b) - I(a) read from the coarse
-    tables against eq. (8) evaluated per pixel (lut_gen.aerial, what brute force applies), for
+    """lut_gen.passes.epipolar_air: a lit section's in-scattering I(b) - I(a) read from the coarse
+    tables against eq. (8) evaluated per pixel (lut_gen.passes.aerial, what brute force applies), for
     the single scattering (Rayleigh and Mie) and the higher orders, on random rays across the
     screen and random sections along them up to 20 km or the ground. Measured (draft tables):
     1.2-1.5% of the in-scattering to b, 2.3-2.8% of the sections' (weighted by their radiance)."""
-    from lut_gen import epipolar_air
+    from lut_gen.passes import epipolar_air
     camera, sun = CAMERA, sun_at(elevation, azimuth)
     frame = epipolar.frame_for(camera, sun, 160, 90, 3000.0, epipolar.EpipolarSettings())
     air = epipolar_air.air_frame(frame, Camera(camera.position, camera.rotation, camera.tan_half_fov, 30e3))

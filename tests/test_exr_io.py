@@ -7,8 +7,10 @@ import numpy as np
 import pytest
 
 import lut_gen
-from lut_gen import LutError, atlas, manifest
-from lut_gen.exr_io import FILES
+from lut_gen import LutError
+from lut_gen.tables import atlas
+from lut_gen.store import manifest
+from lut_gen.store.exr_io import FILES
 
 OpenEXR = pytest.importorskip("OpenEXR")
 
@@ -116,8 +118,8 @@ def test_files_of_different_bakes_are_refused(saved, tmp_path):
         lut_gen.load(saved)
     # The add-on verifies with verify_bake (no OpenEXR in Blender): each file's header key too.
     with pytest.raises(LutError, match="higher_order_scattering.exr comes from another bake.*mixes files"):
-        lut_gen.exr_io.verify_bake(saved)
-    assert not lut_gen.exr_io.is_intact(saved, json.loads((saved / manifest.MANIFEST).read_text())["bake_key"])
+        lut_gen.store.exr_io.verify_bake(saved)
+    assert not lut_gen.store.exr_io.is_intact(saved, json.loads((saved / manifest.MANIFEST).read_text())["bake_key"])
 
 
 def test_a_hostile_header_is_an_error_not_a_crash(saved):
@@ -128,7 +130,7 @@ def test_a_hostile_header_is_an_error_not_a_crash(saved):
     with pytest.raises(LutError, match="invalid header|not a readable EXR file"):
         lut_gen.load(saved)
     with pytest.raises(LutError, match="invalid header|not a readable EXR file"):
-        lut_gen.exr_io.read_header_params(saved)
+        lut_gen.store.exr_io.read_header_params(saved)
 
 
 def test_damaged_pixels_fail_the_content_hash(saved):
@@ -174,7 +176,7 @@ def test_cached_bake_hits_the_second_time(tmp_path):
 def test_builtin_writer_and_header_reader_agree_with_openexr(small_luts, tmp_path, monkeypatch):
     """Inside Blender there is no OpenEXR package: lut_gen writes uncompressed EXRs itself.
     OpenEXR must read them bit-exactly, and the pure header reader must match OpenEXR's."""
-    from lut_gen import exr_io, exr_min
+    from lut_gen.store import exr_io, exr_min
     monkeypatch.setattr(exr_io, "_openexr_or_none", lambda: None)
     lut_gen.save(small_luts, tmp_path / "plain")
     monkeypatch.undo()

@@ -13,14 +13,9 @@ import math
 import numpy as np
 import pytest
 
-from lut_gen import reference as ref
-from lut_gen.atmosphere import (
-    AtmosphereParams,
-    mie_density,
-    mie_phase,
-    rayleigh_density,
-    rayleigh_phase,
-)
+from lut_gen.verify import reference as ref
+from lut_gen.model.atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
+from lut_gen.model.profiles import mie_density, rayleigh_density
 from rays import ray
 
 # The sample's three-channel media with a black ground: the reference integrates exactly

@@ -16,7 +16,7 @@ pytestmark = pytest.mark.bpy
 # The bar: 200 combinations in under 3 minutes. On 2 cores this whole file (the wired
 # scene's set-up, the NaN test and all 200) took 165 s on 2026-12-01 (438 s for the 200 alone
 # the day before): small renders now use shadow maps and epipolar tables no larger than their
-# pixels resolve (lut_gen.render_detail: the 4096-texel maps and 2048 x 2048 tables cost
+# pixels resolve (lut_gen.passes.render_detail: the 4096-texel maps and 2048 x 2048 tables cost
 # 5-22 s a frame at 64 x 36), and the epipolar layout builds and packs no shadow-map atlas.
 # A combination with the shafts off costs about 0.2 s, with them on 0.5-1.5 s (a layout
 # rebuild, the shadow maps and the epipolar tables). OLS_FUZZ_COMBINATIONS=N runs N instead.

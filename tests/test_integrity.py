@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import lut_gen
-from lut_gen import cache, exr_io, manifest
-from lut_gen.exr_io import FILES, LutError
+from lut_gen.store import cache, exr_io, manifest
+from lut_gen.store.exr_io import FILES, LutError
 
 ROOT = Path(__file__).resolve().parent.parent
 SMALL = dict(resolution=(8, 16, 8, 4), orders=2)
@@ -202,7 +202,7 @@ def test_a_fifo_named_like_a_table_does_not_hang(baked):
     path.unlink()
     os.mkfifo(path)
     code = ("import lut_gen, sys\n"
-            "for step in (lambda: lut_gen.load(sys.argv[1]), lambda: lut_gen.exr_io.verify_bake(sys.argv[1])):\n"
+            "for step in (lambda: lut_gen.load(sys.argv[1]), lambda: lut_gen.store.exr_io.verify_bake(sys.argv[1])):\n"
             "    try:\n        step()\n    except lut_gen.LutError as exc:\n        print('refused:', exc)\n")
     result = subprocess.run([sys.executable, "-c", code, str(baked)], capture_output=True, text=True, timeout=60,
                             cwd=ROOT, env=dict(os.environ, PYTHONPATH=str(ROOT)))

@@ -22,7 +22,7 @@ def module(pkg, name):
 
 
 def test_twin_adapts_the_average_luminance(addon_package):
-    twin = module(addon_package, "post.tone_mapping")
+    twin = import_module(f"{addon_package.__name__}.lut_gen.passes.tone_mapping")
     assert twin.adaptation_weight(0.0) == 0.0
     assert twin.adaptation_weight(0.25) == pytest.approx(1 - math.exp(-0.25))
     assert twin.adaptation_weight(1e3) == pytest.approx(1.0)
@@ -42,7 +42,7 @@ def test_twin_adapts_the_average_luminance(addon_package):
 
 def test_inputs_follow_a_sequence_of_frames(addon_package):
     adaptation = module(addon_package, "scene.adaptation")
-    twin = module(addon_package, "post.tone_mapping")
+    twin = import_module(f"{addon_package.__name__}.lut_gen.passes.tone_mapping")
     inputs = lambda frame, last, **kw: adaptation.inputs_for_frame(  # noqa: E731
         frame, last, 0.3, **{"enabled": True, "frame_step": 1, "seconds_per_frame": 0.25, **kw})
     assert inputs(5, 4) == (0.3, pytest.approx(1 - math.exp(-0.25)))
@@ -72,7 +72,7 @@ def test_reads_the_pixel_of_an_uncompressed_exr(addon_package, tmp_path, pixel_t
 
 @pytest.mark.parametrize("auto_exposure", [True, False])
 def test_group_with_adaptation_matches_the_twin(addon_package, tmp_path, auto_exposure):
-    twin = module(addon_package, "post.tone_mapping")
+    twin = import_module(f"{addon_package.__name__}.lut_gen.passes.tone_mapping")
     rgb = hdr_ramp()
     measured = twin.log_average_luminance(rgb) if auto_exposure else twin.FIXED_AVERAGE_LUMINANCE
     for operator, previous, weight in (("UNCHARTED2", 0.02, 0.3), ("REINHARD", 3.0, 0.6)):
@@ -157,7 +157,7 @@ def assert_frames_match(twin, got, want, label):
 
 def test_animation_adapts_to_a_brightness_jump(addon_package, tmp_path, monkeypatch):
     monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "cache"))
-    twin = module(addon_package, "post.tone_mapping")
+    twin = import_module(f"{addon_package.__name__}.lut_gen.passes.tone_mapping")
     adaptation = module(addon_package, "scene.adaptation")
     scene = animated_scene(addon_package, tmp_path)
     tone = scene.compositing_node_group.nodes["OLS Tone Mapping"]
@@ -197,7 +197,7 @@ def test_animation_adapts_to_a_brightness_jump(addon_package, tmp_path, monkeypa
 
 def test_plan_arithmetic(addon_package):
     plan_mod = module(addon_package, "scene.adaptation_plan")
-    twin = module(addon_package, "post.tone_mapping")
+    twin = import_module(f"{addon_package.__name__}.lut_gen.passes.tone_mapping")
     assert plan_mod.adapted_sequence([1.0, 3.0, 3.0], 0.5) == [1.0, 2.0, 2.5]
     plan = plan_mod.check_plan(dict(version=1, start=10, end=14, step=2, weight=0.5, adapted=[1.0, 2.0, 2.5],
                                     signature="x"))

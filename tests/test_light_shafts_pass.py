@@ -1,6 +1,6 @@
 """The light-shaft compositor pass ("OLS Aerial Perspective" + "OLS Light Shafts" as wired by
 Set Up Scene) on a small Cycles render of the sample, against its numpy twin
-lut_gen.scattering_pass fed the same render passes and the same shadow cascades: every one of
+lut_gen.passes.scattering_pass fed the same render passes and the same shadow cascades: every one of
 the sample's 3 x 3 scattering modes, light shafts visibly present, Show Cascades, and the
 cases where the pass cannot run."""
 import dataclasses
@@ -51,12 +51,12 @@ def render_passes(pkg, scene, tmp_path):
         bpy.ops.render.render(write_still=True)
     finally:
         settings.media_type = "IMAGE"
-    passes = pkg.lut_gen.scattering_pass.load_render_passes(tmp_path / "passes.exr")
+    passes = pkg.lut_gen.passes.scattering_pass.load_render_passes(tmp_path / "passes.exr")
     return passes["image"], passes["position"], passes["depth"]
 
 
 class Twin:
-    """lut_gen.scattering_pass with the scene's camera, sun, tables and shadow cascades."""
+    """lut_gen.passes.scattering_pass with the scene's camera, sun, tables and shadow cascades."""
 
     def __init__(self, pkg, scene, passes):
         self.pkg, self.scene, self.passes = pkg, scene, passes
@@ -73,7 +73,7 @@ class Twin:
     def __call__(self, **overrides):
         frame_update = import_module(self.pkg.__name__ + ".addon.scene.frame_update")
         settings = dataclasses.replace(frame_update.pass_settings(self.scene, 10.0), **overrides)
-        return self.pkg.lut_gen.scattering_pass.scattering_pass(
+        return self.pkg.lut_gen.passes.scattering_pass.scattering_pass(
             self.luts, *self.passes, self.camera, self.sun, self.cascades(), settings)
 
 
@@ -230,7 +230,7 @@ def test_bad_scenes_render_without_nan_and_say_why(addon_package, tmp_path, monk
 
     # Epipolar tables too large for memory: brute force runs instead, and the checks say so. At
     # this small render the slices and samples are capped at what its pixels resolve
-    # (lut_gen.render_detail), so the tables fit; a 1280 x 720 render uses all 2048 x 2048.
+    # (lut_gen.passes.render_detail), so the tables fit; a 1280 x 720 render uses all 2048 x 2048.
     epipolar_tables = import_module(addon_package.__name__ + ".addon.scene.epipolar_tables")
     props = import_module(addon_package.__name__ + ".addon.props")
     scene.ols.epipolar_slices, scene.ols.samples_per_slice = 2048, 2048

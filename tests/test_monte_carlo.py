@@ -1,4 +1,4 @@
-"""The Monte Carlo path tracer (lut_gen.monte_carlo), checked against the brute-force quadratures.
+"""The Monte Carlo path tracer (lut_gen.verify.monte_carlo), checked against the brute-force quadratures.
 
 Single scattering and the second order of the path tracer must agree with
 ``reference.single_scattering`` and ``reference.second_order`` within their statistical error;
@@ -11,10 +11,10 @@ import math
 import numpy as np
 import pytest
 
-from lut_gen import reference as ref
-from lut_gen import spectrum
-from lut_gen.atmosphere import AtmosphereParams
-from lut_gen.monte_carlo import radiance_by_order
+from lut_gen.verify import reference as ref
+from lut_gen.model import spectrum
+from lut_gen.model.atmosphere import AtmosphereParams
+from lut_gen.verify.monte_carlo import radiance_by_order
 from rays import ray
 
 PARAMS = AtmosphereParams(spectral=False, ozone=False, ground_albedo=0.0)

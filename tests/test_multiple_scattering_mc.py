@@ -1,6 +1,6 @@
 """The default bake's multiple scattering against the Monte Carlo path tracer, spectrally.
 
-``lut_gen.monte_carlo.radiance_by_order`` shares no code with the baker (only the media
+``lut_gen.verify.monte_carlo.radiance_by_order`` shares no code with the baker (only the media
 definitions). The default params are spectral, so the path tracer runs per wavelength, on
 SPECTRAL_NODES_NM three at a time (``spectrum.triple_params``), and its radiance is converted
 to linear Rec.709 with ``spectrum.rgb_weights`` of those wavelengths, as the bake converts its
@@ -42,8 +42,9 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from lut_gen import AtmosphereParams, spectrum
-from lut_gen.monte_carlo import radiance_by_order
+from lut_gen import AtmosphereParams
+from lut_gen.model import spectrum
+from lut_gen.verify.monte_carlo import radiance_by_order
 from rays import ray_by_elevation as ray
 
 pytestmark = pytest.mark.slow

@@ -1,11 +1,11 @@
-"""lut_gen.panorama: the world-lighting panoramas equal the per-pixel look-ups they replace
+"""lut_gen.passes.panorama: the world-lighting panoramas equal the per-pixel look-ups they replace
 (Luts.sky_radiance and Luts.ground_radiance on every view direction)."""
 import dataclasses
 
 import numpy as np
 import pytest
 
-from lut_gen import panorama
+from lut_gen.passes import panorama
 
 SIZE = (512, 256)               # the add-on's (addon/scene/skylight.py)
 SUN_ELEVATIONS_DEG = (60.0, 3.0, -5.0, 90.0)
@@ -18,7 +18,7 @@ def sun_direction(elevation_deg):
 
 
 def per_pixel(luts, sun, height):
-    """What the add-on computed before lut_gen.panorama."""
+    """What the add-on computed before lut_gen.passes.panorama."""
     d = panorama.directions(*SIZE)
     view = (max(height, 0.0), d[..., 2], sun[2], d @ sun)
     return luts.sky_radiance(*view), luts.ground_radiance(*view)

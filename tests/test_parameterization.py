@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from lut_gen import AtmosphereParams
-from lut_gen import parameterization as par
+from lut_gen.tables import parameterization as par
 
 P = AtmosphereParams()
 

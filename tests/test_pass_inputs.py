@@ -5,7 +5,9 @@ import numpy as np
 import OpenEXR
 import pytest
 
-from lut_gen import cli, exr_io, scattering_pass
+from lut_gen import cli
+from lut_gen.store import exr_io
+from lut_gen.passes import scattering_pass
 from test_epipolar import CAMERA, Scene, pillars, sun_at
 
 

@@ -98,13 +98,13 @@ def test_readme_command_runs(line, command, scratch, tmp_path):
 
 
 def test_readme_python_api_names_exist():
-    """The Python API block's names resolve (lut_gen.reference after ``import lut_gen``, etc.)."""
+    """The Python API block's names resolve (lut_gen.verify.reference after ``import lut_gen``, etc.)."""
     import lut_gen
     text = README.read_text()
     block = re.search(r"```python\n(.*?)```", text, re.S).group(1)
     tree = ast.parse(block)
-    roots = {"lut_gen": lut_gen, "luts": lut_gen.Luts, "reference": lut_gen.reference,
-             "monte_carlo": lut_gen.monte_carlo}
+    roots = {"lut_gen": lut_gen, "luts": lut_gen.Luts, "reference": lut_gen.verify.reference,
+             "monte_carlo": lut_gen.verify.monte_carlo}
     checked = 0
     for node in ast.walk(tree):
         if isinstance(node, ast.Attribute):

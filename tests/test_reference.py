@@ -3,21 +3,16 @@
 Independent means: closed forms (exponential columns, the Chapman function at 90 degrees,
 the tent area), an optically thin limit, hard geometric facts (Earth hits, the Earth's
 shadow, zero-length rays) and a slow, fully 3D uniform-step integrator written here that
-shares nothing with ``lut_gen.reference`` except the density and phase functions.
+shares nothing with ``lut_gen.verify.reference`` except the density and phase functions.
 """
 import math
 
 import numpy as np
 import pytest
 
-from lut_gen import reference as ref
-from lut_gen.atmosphere import (
-    AtmosphereParams,
-    densities,
-    mie_phase,
-    ozone_density,
-    rayleigh_phase,
-)
+from lut_gen.verify import reference as ref
+from lut_gen.model.atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
+from lut_gen.model.profiles import densities, ozone_density
 
 # The three-channel integrators are checked on the sample's media; the per-wavelength wrapper
 # at the end of this file covers spectral params.
@@ -385,7 +380,7 @@ def test_single_scattering_matches_3d_brute_force(h, mu_v, mu_s, nu):
 def test_spectral_reference_is_the_three_channel_one_per_wavelength():
     """ref.spectral: each wavelength is the three-channel integrator on that wavelength's
     media, and the sum is converted with the white-balanced weights (a flat spectrum -> 1, 1, 1)."""
-    from lut_gen import spectrum
+    from lut_gen.model import spectrum
     spectral = AtmosphereParams()
     lam = (450.0, 550.0, 650.0)
     args = (1000.0, 0.3, 0.7, 0.5)

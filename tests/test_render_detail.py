@@ -1,10 +1,10 @@
-"""Level of detail of the per-frame light-shaft data (lut_gen.render_detail): small renders use
+"""Level of detail of the per-frame light-shaft data (lut_gen.passes.render_detail): small renders use
 shadow maps and epipolar tables no larger than their pixels resolve, and the picture they show
 is that of the full settings."""
 import numpy as np
 import pytest
 
-from lut_gen import render_detail, scattering_pass
+from lut_gen.passes import render_detail, scattering_pass
 from test_epipolar import CAMERA, Scene, fence, pillars, sun_at
 
 

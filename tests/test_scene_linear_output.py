@@ -46,7 +46,7 @@ def tone_node(scene):
 
 
 def test_exr_is_scene_linear_and_png_is_tone_mapped(addon_package, wired, tmp_path):
-    twin = import_module(addon_package.__name__ + ".addon.post.tone_mapping")
+    twin = import_module(addon_package.__name__ + ".lut_gen.passes.tone_mapping")
     scene = wired
     linear = render_rgb(scene, tmp_path / "beauty.exr", composite=True)
     assert tone_node(scene).inputs["Linear Output"].default_value == 1.0
@@ -76,7 +76,7 @@ def test_exr_is_scene_linear_and_png_is_tone_mapped(addon_package, wired, tmp_pa
 
 
 def test_blender_view_transform_operator(addon_package, wired, tmp_path):
-    twin = import_module(addon_package.__name__ + ".addon.post.tone_mapping")
+    twin = import_module(addon_package.__name__ + ".lut_gen.passes.tone_mapping")
     wiring = import_module(addon_package.__name__ + ".addon.scene.wiring")
     scene = wired
     assert scene.view_settings.view_transform == "Standard"        # the sample's operators

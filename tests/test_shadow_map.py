@@ -1,9 +1,9 @@
-"""lut_gen.shadow_map: the numpy shadow-map render against brute-force ray casting, cascade
+"""lut_gen.passes.shadow_map: the numpy shadow-map render against brute-force ray casting, cascade
 splits and footprints, and the visibility test the light-shaft march uses."""
 import numpy as np
 import pytest
 
-from lut_gen import shadow_map as sm
+from lut_gen.passes import shadow_map as sm
 
 
 def heightfield_triangles(n=10, size=100.0, seed=1):

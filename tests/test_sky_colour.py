@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import lut_gen
-from lut_gen import spectrum
+from lut_gen.model import spectrum
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])      # linear Rec.709 -> Y
 HEIGHT = 2.0

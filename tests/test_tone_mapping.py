@@ -48,7 +48,7 @@ def composite(pkg, tmp_path, rgb, **inputs):
 
 @pytest.mark.parametrize("auto_exposure", [True, False])
 def test_every_operator_matches_the_sample_formula(addon_package, tmp_path, auto_exposure):
-    twin = import_module(addon_package.__name__ + ".addon.post.tone_mapping")
+    twin = import_module(addon_package.__name__ + ".lut_gen.passes.tone_mapping")
     rgb = hdr_ramp()
     average = twin.log_average_luminance(rgb) if auto_exposure else None
     for index, operator in enumerate(twin.OPERATORS):
@@ -63,7 +63,7 @@ def test_every_operator_matches_the_sample_formula(addon_package, tmp_path, auto
 
 
 def test_operators_differ(addon_package):
-    twin = import_module(addon_package.__name__ + ".addon.post.tone_mapping")
+    twin = import_module(addon_package.__name__ + ".lut_gen.passes.tone_mapping")
     rgb = hdr_ramp()
     results = [twin.tone_map(rgb, op) for op in twin.OPERATORS]
     for i in range(len(results)):
@@ -123,7 +123,7 @@ def test_tone_mapped_sample_render_matches_the_twin(addon_package, tmp_path, mon
     """The whole chain: a render of the wired sample, tone mapped by the compositor, equals the
     numpy operator applied to the same render without compositing."""
     monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "cache"))
-    twin = import_module(addon_package.__name__ + ".addon.post.tone_mapping")
+    twin = import_module(addon_package.__name__ + ".lut_gen.passes.tone_mapping")
     scene = sample_scene(addon_package)
     assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
     assert bpy.data.node_groups.get("OLS Compositing") == scene.compositing_node_group

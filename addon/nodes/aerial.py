@@ -1,10 +1,10 @@
 """"OLS Aerial Perspective": the compositor group that puts the atmosphere between the camera
 and every surface: L_surface T(C->P) + (L(C) - T(C->P) L(P)) x sun strength x scattering scale
 (eq. 8 of seed 000), the two look-ups on the same side of the horizon seam and the extinction
-from the optical-depth table. Twin: lut_gen.aerial.aerial_perspective.
+from the optical-depth table. Twin: lut_gen.passes.aerial.aerial_perspective.
 
 Inputs come from render passes (Image, Position, Depth) and "OLS Frame Values" (camera, sun). Pixels
-without geometry (the sky: depth beyond "Sky Depth", see lut_gen.scattering_pass.sky_depth)
+without geometry (the sky: depth beyond "Sky Depth", see lut_gen.passes.scattering_pass.sky_depth)
 pass through unchanged.
 """
 from __future__ import annotations

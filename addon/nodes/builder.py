@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import bpy
 
-from ...lut_gen.interpolation import GEOMETRIC_FLOOR
+from ...lut_gen.tables.interpolation import GEOMETRIC_FLOOR
 
 
 class Graph:
@@ -96,7 +96,7 @@ class Graph:
         return self.vmath("MULTIPLY_ADD", self.vmath("SUBTRACT", b, a), self.combine(t, t, t), a)
 
     def vgeometric_lerp(self, a, b, t):
-        """Component-wise a^(1-t) b^t with lut_gen.interpolation.geometric_lerp's floor; t a
+        """Component-wise a^(1-t) b^t with lut_gen.tables.interpolation.geometric_lerp's floor; t a
         scalar socket."""
         floor = self.vmath("MAXIMUM", self.vscale(self.vmath("MAXIMUM", a, b), float(GEOMETRIC_FLOOR)), (1e-30,) * 3)
         low, high = self.vmath("MAXIMUM", a, floor), self.vmath("MAXIMUM", b, floor)

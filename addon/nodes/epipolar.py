@@ -1,8 +1,8 @@
 """The epipolar technique's part of "OLS Light Shafts": instead of marching each pixel's ray
 through the shadow maps, read the lit length, the first lit distance and (INTEGRATION) the
-shadowed single scattering at the pixel's own depth from the tables lut_gen.epipolar builds
+shadowed single scattering at the pixel's own depth from the tables lut_gen.passes.epipolar builds
 before each frame, then apply the scattering modes from the in-scattering tables of
-lut_gen.epipolar_air (no per-pixel eq. 8). Twin: lut_gen.epipolar_air.light_shaft_difference.
+lut_gen.passes.epipolar_air (no per-pixel eq. 8). Twin: lut_gen.passes.epipolar_air.light_shaft_difference.
 
 Table image "OLS Epipolar Lit" (RGBA: lit length, first lit): row i * K + k holds slice node
 i at distance node k, column j sample node j; "OLS Epipolar Integral" (RGB) the same for the
@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ...lut_gen import epipolar, epipolar_air
+from ...lut_gen.passes import epipolar, epipolar_air
 from .lookup import mie_phase, rayleigh_phase
 
 LIT_IMAGE = "OLS Epipolar Lit"
@@ -136,7 +136,7 @@ def in_scattering(g, gin, direction, length, sun, geometry, layout, images, mie_
     aerial perspective's in-scattering where ``geometry`` is 1, plus the shadowed minus the
     unshadowed in-scattering (the light shafts), all from the tables: the lit length and first
     lit distance at the pixel's own depth, then the modes from the in-scattering images.
-    Twin: lut_gen.epipolar_air.light_shaft_difference (unshadowed x geometry + difference).
+    Twin: lut_gen.passes.epipolar_air.light_shaft_difference (unshadowed x geometry + difference).
     Returns that and the unshadowed in-scattering alone."""
     lit_image, integral_image, _, air_images = images
     across, along = _grid_coordinates(g, gin, direction, sun)

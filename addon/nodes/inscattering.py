@@ -1,9 +1,9 @@
 """Eq. (8) of seed 000 in a compositor tree: light scattered toward the camera from a ray
 section start -> end, T(C->start) L(start) - T(C->end) L(end), both look-ups on the side of the
-horizon seam the first one chose (Listing 2). Twin: lut_gen.aerial._eq8."""
+horizon seam the first one chose (Listing 2). Twin: lut_gen.passes.aerial._eq8."""
 from __future__ import annotations
 
-from ...lut_gen.aerial import HORIZON_BLEND, HORIZON_BLEND_HEIGHT
+from ...lut_gen.passes.aerial import HORIZON_BLEND, HORIZON_BLEND_HEIGHT
 from .lookup import COMPOSITOR_GROUP_NAME
 from .optical import horizon_cos, point_frame
 
@@ -59,7 +59,7 @@ def section_inscattering(g, table, start, end, direction, sun, start_transmittan
     """max(T_start L(start) - T_end L(end), 0) for world points ``start`` and ``end``; within
     HORIZON_BLEND of the start's horizon (narrowed for long sections), the blend of eq. (8) along
     the rays just below and just above the horizon (Bruneton's fix for the step the seam draws;
-    twin: lut_gen.aerial._eq8)."""
+    twin: lut_gen.passes.aerial._eq8)."""
     start_frame = point_frame(g, start, params)
     height, up = start_frame
 

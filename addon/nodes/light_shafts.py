@@ -1,5 +1,5 @@
 """"OLS Light Shafts": the sun's shadows in the air, as a compositor group placed after
-"OLS Aerial Perspective". Twin: lut_gen.scattering_pass (with lut_gen.aerial.light_shafts).
+"OLS Aerial Perspective". Twin: lut_gen.passes.scattering_pass (with lut_gen.passes.aerial.light_shafts).
 
 Each pixel's ray runs from the camera to its surface point, or for the sky to the end of the
 last shadow cascade. The group marches ``steps`` samples through the cascaded shadow maps
@@ -18,8 +18,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ...lut_gen import shadow_map
-from ...lut_gen.scattering_pass import MIN_FORWARD_COSINE
+from ...lut_gen.passes import shadow_map
+from ...lut_gen.passes.shadow_map import MIN_FORWARD_COSINE
 from . import epipolar
 from .aerial import PASS_INPUTS
 from .builder import group_io, new_group
@@ -94,7 +94,7 @@ SHARED_INPUTS = [
 
 def build_shadow_test_group(layout: ShaftLayout, atlas_image, parameter_image):
     """"OLS Shadow Test": the sun visibility of a world point (1 lit, 0 shadowed, PCF fractions)
-    and its cascade. Twin: lut_gen.shadow_map.visibility and select_cascade."""
+    and its cascade. Twin: lut_gen.passes.shadow_map.visibility and select_cascade."""
     tree = new_group(SHADOW_TEST_GROUP, "CompositorNodeTree")
     inputs = [("Point", "NodeSocketVector", (0.0, 0.0, 0.0))] + SHARED_INPUTS + cascade_inputs(layout.cascades)
     g, gin, gout = group_io(tree, inputs, [("Lit", "NodeSocketFloat", None), ("Cascade", "NodeSocketFloat", None)])
@@ -163,7 +163,7 @@ def build_integration_group(optical_image, params):
     """"OLS Integration Step": single scattering of one march step, sigma_s P(theta) T(C->X)
     T_sun(X) x lit x step (the sample's "Singl sctr: integration"), with the extinction from the
     camera accumulated step by step (net densities in and out, midpoint rule). Twin: the
-    INTEGRATION branch of lut_gen.aerial.light_shafts."""
+    INTEGRATION branch of lut_gen.passes.aerial.light_shafts."""
     tree = new_group(INTEGRATION_GROUP, "CompositorNodeTree")
     inputs = [("Point", "NodeSocketVector", (0.0, 0.0, 0.0)), ("Direction", "NodeSocketVector", (0.0, 1.0, 0.0)),
               ("Sun Direction", "NodeSocketVector", (0.0, 0.0, 1.0)), ("Lit", "NodeSocketFloat", 1.0),
@@ -258,7 +258,7 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
         base = gin.outputs["Image"]
     scale3 = g.combine(scale, scale, scale)
     # Sky pixels take the share of the darkening their own light allows (twin and why:
-    # lut_gen.scattering_pass.sky_shadow_share); no negative light in any case.
+    # lut_gen.passes.scattering_pass.sky_shadow_share); no negative light in any case.
     share = g.vmath("MINIMUM", g.vmath("DIVIDE", base, g.vmath("MAXIMUM", g.vmath("MULTIPLY", unshadowed, scale3),
                                                                   (1e-20,) * 3)), (1.0, 1.0, 1.0))
     share = g.vmath("MAXIMUM", share, (0.0, 0.0, 0.0))
@@ -282,7 +282,7 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
 
 def _brute_force_difference(g, camera, end, direction, sun, layout: ShaftLayout, lit_length, first_lit, integrated):
     """(shadowed minus unshadowed, unshadowed) in-scattering per unit sun: the modes applied
-    with eq. (8) per pixel (twin: lut_gen.aerial.apply_modes minus segment_inscattering)."""
+    with eq. (8) per pixel (twin: lut_gen.passes.aerial.apply_modes minus segment_inscattering)."""
     def transmittance_to(point):
         return segment_transmittance_node(g, camera, point, direction)
 

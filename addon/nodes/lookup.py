@@ -1,9 +1,9 @@
-"""The shared 4D look-up group: seed 000's Listing 1 over our 2D atlas (see lut_gen/atlas.py).
+"""The shared 4D look-up group: seed 000's Listing 1 over our 2D atlas (see lut_gen/tables/atlas.py).
 
 Inputs are world quantities; the group applies eqs. (4)-(7) (Listing 2's horizon split for the
 view zenith), filters the view-zenith axis in hardware inside a tile, blends the neighbouring
 sun-view nodes linearly and the neighbouring sun-zenith and height nodes geometrically
-(lut_gen.sampling.GEOMETRIC_AXES) by hand, then restores the Rayleigh
+(lut_gen.tables.lookup.GEOMETRIC_AXES) by hand, then restores the Rayleigh
 phase the tables are divided by, adds the single Mie table times the exact Mie phase, and
 multiplies ground-hitting rays by their ground-ray scale. Its numpy twin is
 lut_gen.Luts.sky_radiance.
@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import math
 
-from ...lut_gen import geometry
-from ...lut_gen import parameterization as par
-from ...lut_gen.atmosphere import RAYLEIGH_PHASE_NORM
+from ...lut_gen.model import geometry
+from ...lut_gen.tables import parameterization as par
+from ...lut_gen.model.atmosphere import RAYLEIGH_PHASE_NORM
 from .builder import group_io, new_group
 from .optical import distance_to_ground
 
@@ -63,12 +63,12 @@ def sun_view_coordinate(g, cos_sun_view, n_t):
 
 
 def rayleigh_phase(g, cos_theta):
-    """Rayleigh phase function (lut_gen.atmosphere.rayleigh_phase)."""
+    """Rayleigh phase function (lut_gen.model.atmosphere.rayleigh_phase)."""
     return g.mul(g.mul_add(cos_theta, cos_theta, 1.0), RAYLEIGH_PHASE_NORM)
 
 
 def mie_phase(g, cos_theta, mie_g):
-    """Cornette-Shanks phase function (lut_gen.atmosphere.mie_phase)."""
+    """Cornette-Shanks phase function (lut_gen.model.atmosphere.mie_phase)."""
     g2 = mie_g * mie_g
     norm = 3.0 / (8.0 * math.pi) * (1.0 - g2) / (2.0 + g2)
     peak = g.math("POWER", g.mul_add(cos_theta, -2.0 * mie_g, 1.0 + g2), 1.5)
@@ -76,7 +76,7 @@ def mie_phase(g, cos_theta, mie_g):
 
 
 def ground_ray_scale(g, h, cos_view, above, earth_radius):
-    """lut_gen.geometry.ground_ray_scale for the half of the view axis the look-up used."""
+    """lut_gen.model.geometry.ground_ray_scale for the half of the view axis the look-up used."""
     distance = g.math("MAXIMUM", distance_to_ground(g, h, cos_view, earth_radius), geometry.MIN_GROUND_RAY_M)
     length = geometry.GROUND_RAY_SCALE_M
     # l (1 - exp(-x)) as 2 l exp(-x/2) sinh(x/2): float32 keeps its precision for short rays.
@@ -176,7 +176,7 @@ def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=Fal
 
     def interpolated(atlas):
         """Linear along the view zenith and the sun-view angle, geometric along the sun zenith
-        and the height (lut_gen.sampling.GEOMETRIC_AXES)."""
+        and the height (lut_gen.tables.lookup.GEOMETRIC_AXES)."""
         at_height = []
         for kh in (0, 1):
             sun_rows = []

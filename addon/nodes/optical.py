@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import math
 
-from ...lut_gen import aerial as aerial_twin
-from ...lut_gen import geometry
-from ...lut_gen.atmosphere import OZONE_HALF_WIDTH_M, OZONE_PEAK_HEIGHT_M
+from ...lut_gen.passes import aerial as aerial_twin
+from ...lut_gen.model import geometry
+from ...lut_gen.model.profiles import OZONE_HALF_WIDTH_M, OZONE_PEAK_HEIGHT_M
 
 
 def point_frame(g, point, params):
@@ -44,7 +44,7 @@ def horizon_cos(g, height, params):
 def horizon_safe_cos(g, height, cos_zenith, n_heights, n_cos, params):
     """Rays above the horizon read the table at least at the first cos node above the horizon
     of the lower height row the filter blends, so no Earth-hit texel (1e20) leaks into them.
-    Twin: lut_gen.sampling.horizon_safe_cos."""
+    Twin: lut_gen.tables.lookup.horizon_safe_cos."""
     row = g.math("MAXIMUM", g.math("FLOOR", g.mul_add(height, n_heights / params.atmosphere_height, -0.5)), 0.0)
     lower_row_height = g.mul(g.add(row, 0.5), params.atmosphere_height / n_heights)
     node = g.math("CEIL", g.mul_add(g.mul_add(horizon_cos(g, lower_row_height, params), 0.5, 0.5), n_cos, -0.5))
@@ -55,7 +55,7 @@ def horizon_safe_cos(g, height, cos_zenith, n_heights, n_cos, params):
 
 def transmittance_from_net_density(g, rayleigh, mie, ozone, params):
     """exp(-(beta_R D_R + beta_M^ext D_M + beta_O D_O)) per channel."""
-    extinction = params.extinction_matrix()      # RGB rows (spectral params: fitted, see lut_gen.spectrum)
+    extinction = params.extinction_matrix()      # RGB rows (spectral params: fitted, see lut_gen.model.spectrum)
     optical_depth = g.vmath("ADD", g.vscale(tuple(extinction[0]), rayleigh),
                             g.vmath("ADD", g.vscale(tuple(extinction[1]), mie),
                                     g.vscale(tuple(extinction[2]), ozone)))
@@ -75,7 +75,7 @@ def ambient_skylight(g, image, cos_sun_zenith):
 
 
 def distance_to_ground(g, height, cos_view, earth_radius):
-    """lut_gen.geometry.distance_to_ground, in its cancellation-free (float32-safe) form."""
+    """lut_gen.model.geometry.distance_to_ground, in its cancellation-free (float32-safe) form."""
     radius = g.add(height, earth_radius)
     rise = g.mul(height, g.add(height, 2.0 * earth_radius))
     r_cos = g.mul(radius, cos_view)
@@ -87,7 +87,7 @@ def ground_radiance(g, optical_image, ambient_image, height, cos_view, cos_sun, 
     """Light the Lambertian ground reflects toward the viewer per unit sun, 0 for rays that miss
     it: T(view) * albedo / pi * (direct sun + ambient skylight) at the ground point. Twin:
     lut_gen.Luts.ground_radiance."""
-    height = g.clamp(height, 0.0, params.atmosphere_height)       # as lut_gen.ground.ground_point
+    height = g.clamp(height, 0.0, params.atmosphere_height)       # as lut_gen.tables.ground.ground_point
     radius = g.add(height, params.earth_radius)
     distance = g.math("MINIMUM", distance_to_ground(g, height, cos_view, params.earth_radius),
                       2.0 * math.sqrt(params.top_radius ** 2 - params.earth_radius ** 2))
@@ -136,7 +136,7 @@ def segment_transmittance(g, image, start, end, direction, params):
     reversed ray where the forward one from either end runs into the ground (the table holds
     1e20 there); for rays grazing the horizon, where that difference is ill-conditioned, an
     8-point Gauss-Legendre sum of the densities along the segment (blended over
-    QUADRATURE_BAND). Twin: lut_gen.aerial.segment_transmittance."""
+    QUADRATURE_BAND). Twin: lut_gen.passes.aerial.segment_transmittance."""
     (h_s, up_s), (h_e, up_e) = point_frame(g, start, params), point_frame(g, end, params)
     reverse = g.vscale(direction, -1.0)
     cos_s, cos_e = g.vmath("DOT_PRODUCT", direction, up_s), g.vmath("DOT_PRODUCT", direction, up_e)
@@ -162,7 +162,7 @@ def segment_transmittance(g, image, start, end, direction, params):
 
 def quadrature_net_density(g, start, end, params):
     """(Rayleigh, Mie, ozone) net densities along start -> end, 8-point Gauss-Legendre.
-    Twin: lut_gen.aerial.quadrature_net_density."""
+    Twin: lut_gen.passes.aerial.quadrature_net_density."""
     segment = g.vmath("SUBTRACT", end, start)
     half_length = g.mul(g.vmath("LENGTH", segment), 0.5)
     sums = [0.0, 0.0, 0.0]
@@ -175,5 +175,5 @@ def quadrature_net_density(g, start, end, params):
 
 
 def ozone_density(g, height):
-    """Bruneton's tent profile (lut_gen.atmosphere.ozone_density)."""
+    """Bruneton's tent profile (lut_gen.model.atmosphere.ozone_density)."""
     return g.clamp(g.sub(1.0, g.div(g.math("ABSOLUTE", g.sub(height, OZONE_PEAK_HEIGHT_M)), OZONE_HALF_WIDTH_M)), 0.0, 1.0)

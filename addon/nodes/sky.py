@@ -3,7 +3,7 @@ direction and the camera altitude, times the extraterrestrial sun strength and t
 scale, plus the lit ground below the horizon (times the sun strength, like the terrain) and the
 limb-darkened sun disc attenuated by the atmosphere (camera rays only: the Sun lamp already
 lights the scene). Twin: lut_gen.Luts.sky_radiance + ground_radiance (+ transmittance_to_top and
-lut_gen.sun_disc for the disc).
+lut_gen.model.sun_disc for the disc).
 
 The local zenith is +Z: the camera is assumed within a few km of the origin, where the Earth's
 curvature tilts the zenith by less than 0.05 deg.
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-from ...lut_gen import sun_disc
+from ...lut_gen.model import sun_disc
 from .builder import group_io, new_group
 from .lookup import GROUP_NAME as LOOKUP_GROUP
 from .optical import ground_radiance, transmittance_to_top
@@ -29,7 +29,7 @@ INPUTS = [
 
 
 def limb_darkened_disc(g, cos_sun_view, angle):
-    """lut_gen.sun_disc.limb_profile / solid angle: disc radiance per unit irradiance."""
+    """lut_gen.model.sun_disc.limb_profile / solid angle: disc radiance per unit irradiance."""
     radius = g.mul(angle, 0.5)
     rho = g.div(g.math("ARCCOSINE", g.clamp(cos_sun_view, -1.0, 1.0)), g.math("MAXIMUM", radius, 1e-9))
     mu = g.math("SQRT", g.math("MAXIMUM", g.sub(1.0, g.mul(rho, rho)), 0.0))

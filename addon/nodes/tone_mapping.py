@@ -1,6 +1,6 @@
 """"OLS Tone Mapping": the sample's seven tone-mapping operators as a compositor group.
 
-Twin: addon/post/tone_mapping.py (same names, same constants). The operator is an input (its
+Twin: lut_gen/passes/tone_mapping.py (same names, same constants). The operator is an input (its
 index in OPERATORS) so a driver from scene.ols switches it; all seven are evaluated and the
 chosen one is kept. Auto exposure takes the log-average luminance of the frame from the Levels
 node's mean over log luminance; otherwise "Average Luminance" is used (the sample's 0.1).
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-from ..post import tone_mapping as twin
+from ...lut_gen.passes import tone_mapping as twin
 from .builder import group_io, new_group
 
 GROUP_NAME = "OLS Tone Mapping"

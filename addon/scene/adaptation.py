@@ -24,8 +24,8 @@ from pathlib import Path
 import bpy
 from bpy.app.handlers import persistent
 
-from ...lut_gen import exr_min
-from ..post import tone_mapping as twin
+from ...lut_gen.store import exr_min
+from ...lut_gen.passes import tone_mapping as twin
 from .file_outputs import new_file_output, park
 
 TONE_NODE = "OLS Tone Mapping"          # compositor.NODE_NAME (not imported: compositor imports us)

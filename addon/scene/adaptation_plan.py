@@ -25,7 +25,7 @@ from contextlib import contextmanager
 
 import bpy
 
-from ..post import tone_mapping as twin
+from ...lut_gen.passes import tone_mapping as twin
 from . import adaptation
 from .wiring import WIRED_KEY
 

@@ -18,7 +18,7 @@ import bpy
 import numpy as np
 
 from .. import nodes, props
-from ..post import tone_mapping
+from ...lut_gen.passes import tone_mapping
 from . import adaptation, luts
 from .file_outputs import new_file_output, park
 

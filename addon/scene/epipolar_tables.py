@@ -1,11 +1,11 @@
-"""The epipolar technique's per-frame tables (lut_gen.epipolar) in the images the "OLS Light
+"""The epipolar technique's per-frame tables (lut_gen.passes.epipolar) in the images the "OLS Light
 Shafts" group reads, and the choice of technique for the scene's settings."""
 from __future__ import annotations
 
 import bpy
 import numpy as np
 
-from ...lut_gen import epipolar, epipolar_air, render_detail
+from ...lut_gen.passes import epipolar, epipolar_air, render_detail
 from .. import nodes, props
 from . import luts
 
@@ -27,7 +27,7 @@ def table_texels(settings) -> int:
 
 def technique(settings) -> str:
     """The technique the pass runs: the setting, except that epipolar tables larger than
-    lut_gen.epipolar.MAX_TABLE_TEXELS fall back to brute force (too_large says so)."""
+    lut_gen.passes.epipolar.MAX_TABLE_TEXELS fall back to brute force (too_large says so)."""
     if settings.scattering_technique == "EPIPOLAR_SAMPLING" and table_texels(settings) <= epipolar.MAX_TABLE_TEXELS:
         return "EPIPOLAR_SAMPLING"
     return "BRUTE_FORCE"

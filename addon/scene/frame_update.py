@@ -13,7 +13,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from ...lut_gen import epipolar, scattering_pass
+from ...lut_gen.passes import epipolar, scattering_pass
 from .. import nodes, props
 from . import compositor, epipolar_tables, luts, shadow_maps
 
@@ -125,7 +125,7 @@ def forget():
 
 
 def pass_settings(scene, sun_strength: float):
-    """scene.ols as the twin's PassSettings (lut_gen.scattering_pass)."""
+    """scene.ols as the twin's PassSettings (lut_gen.passes.scattering_pass)."""
     fields = scattering_pass.PassSettings.__dataclass_fields__
     settings = props.Sanitized(scene.ols)
     values = {name: getattr(settings, name) for name in fields if hasattr(scene.ols, name)}

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import bpy
 
-from ...lut_gen.exr_io import FILES, LutError, verify_bake
+from ...lut_gen.store.exr_io import FILES, LutError, verify_bake
 
 IMAGE_PREFIX = "OLS"
 
@@ -28,7 +28,7 @@ def load_images(directory) -> dict:
     """{table: bpy Image} for every file of the bake in ``directory``; reuses images already
     loaded for the same bake key and file. Raises LutError (from lut_gen) naming the file for a
     missing, damaged, incomplete or mixed bake: every file is verified against the bake's
-    manifest first (lut_gen.manifest; hashes cached per file by size and mtime)."""
+    manifest first (lut_gen.store.manifest; hashes cached per file by size and mtime)."""
     directory = Path(directory)
     if not directory.is_dir():
         raise LutError(f"{directory} holds no baked tables; run Bake Tables first")

@@ -2,7 +2,7 @@
 baking.
 
 Packing stores each table file's bytes in its Blender image (Image.pack) and the bake manifest
-(lut_gen.manifest: every file's SHA-256) as a property of the "multiple" image. On a machine
+(lut_gen.store.manifest: every file's SHA-256) as a property of the "multiple" image. On a machine
 where the bake is not in the cache, the packed bytes are written back as a bake folder (the
 cache's own, or a temporary one where the cache cannot be written), verified against the packed
 manifest like any bake, and the images point at it. Damaged packed bytes are named and the
@@ -17,9 +17,9 @@ from pathlib import Path
 import bpy
 
 from ... import lut_gen
-from ...lut_gen import manifest
-from ...lut_gen.atomic import atomic_path
-from ...lut_gen.exr_io import FILES, LutError, is_intact, verify_bake
+from ...lut_gen.store import manifest
+from ...lut_gen.store.atomic import atomic_path
+from ...lut_gen.store.exr_io import FILES, LutError, is_intact, verify_bake
 from . import luts
 
 MANIFEST_PROP = "ols_bake_manifest"
@@ -73,7 +73,7 @@ def restore(key: str) -> Path:
         if manifest.bytes_sha256(image.packed_file.data) != doc["files"].get(FILES[table]):
             raise LutError(f"the packed table {FILES[table]} (image {image.name!r}) is damaged or comes "
                            "from another bake")
-    directory = lut_gen.cache.default_cache_root() / key
+    directory = lut_gen.store.cache.default_cache_root() / key
     if not is_intact(directory, key):
         try:
             _write_bake(directory, key, images, text)

@@ -1,5 +1,5 @@
 """The sun's cascaded shadow maps for the light-shaft pass: the scene's evaluated meshes
-rendered orthographically along the sun direction by lut_gen.shadow_map, stored in two
+rendered orthographically along the sun direction by lut_gen.passes.shadow_map, stored in two
 images the "OLS Light Shafts" group reads ("OLS Shadow Map", "OLS Shadow Cascades").
 
 They are rendered again before each frame is composited (see frame_update), since sun, camera
@@ -11,7 +11,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from ...lut_gen import scattering_pass, shadow_map
+from ...lut_gen.passes import scattering_pass, shadow_map
 from .. import props
 from . import luts, sun as sun_lamps
 

@@ -6,15 +6,16 @@ term (see nodes/sky.py): two texture fetches. They hold sky radiance and ground 
 unit sun (lut_gen's numpy look-ups, the node groups' twins), apart because the sky is scaled by
 the scattering scale and the ground is not, for the current sun direction and camera height, so
 they are recomputed when either changes (scene handlers) and after a re-bake, by
-lut_gen.panorama (its docstring has the pixel layout).
+lut_gen.passes.panorama (its docstring has the pixel layout).
 """
 from __future__ import annotations
 
 import bpy
 import numpy as np
 
-from ...lut_gen import atlas, panorama
-from ...lut_gen.sampling import Luts
+from ...lut_gen.tables import atlas
+from ...lut_gen.passes import panorama
+from ...lut_gen.tables.lookup import Luts
 
 IMAGE_NAME = "OLS Sky Light"
 GROUND_IMAGE_NAME = "OLS Ground Light"

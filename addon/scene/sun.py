@@ -10,7 +10,7 @@ import math
 import bpy
 import numpy as np
 
-from ...lut_gen.atmosphere import AtmosphereParams
+from ...lut_gen.model.atmosphere import AtmosphereParams
 
 SUN_NAME = "OLS Sun"
 EXTRATERRESTRIAL_STRENGTH = 10.0     # the sample's extraterrestrial sun intensity
@@ -80,7 +80,7 @@ class OriginTransmittance:
         width, height = image.size
         pixels = np.empty(width * height * 4, dtype=np.float32)
         image.pixels.foreach_get(pixels)
-        # Image x = height axis, y = cos zenith axis (see lut_gen.exr_io); row 0 at the bottom.
+        # Image x = height axis, y = cos zenith axis (see lut_gen.store.exr_io); row 0 at the bottom.
         self.ground_row = pixels.reshape(height, width, 4)[:, 0, :3].astype(np.float64)
         self.extinction = params.extinction_matrix()
 

@@ -12,7 +12,7 @@ import bpy
 
 from ... import lut_gen
 from .. import nodes, props
-from ...lut_gen.sampling import TABLES_WITH_MIE
+from ...lut_gen.tables.lookup import TABLES_WITH_MIE
 from . import compositor, drivers, epipolar_tables, frame_update, luts, shadow_maps, skylight, sun as sun_lamps
 
 WORLD_NAME = "OLS World"
@@ -41,7 +41,7 @@ def build_groups(bake_dir, engine="CYCLES"):
     """Load the bake's images and (re)build the node groups for the render engine; returns
     (images, atmosphere params)."""
     images = luts.load_images(bake_dir)
-    params, dims = lut_gen.exr_io.read_header_params(bake_dir)
+    params, dims = lut_gen.store.exr_io.read_header_params(bake_dir)
     nodes.build_lookup_group(images["multiple"], dims, params, nodes.lookup.filtering_for_engine(engine),
                              mie_image=images["single_mie"])
     nodes.build_sky_group(images["optical_depth"], params, skylight.ensure_image(), images["ambient"],
@@ -278,7 +278,7 @@ def _wire_checked(scene, bake_dir, images, params, terrain_objects, sun, resolut
         wire_terrain(obj, sun)
     build_light_shafts(scene, images["optical_depth"], params)
     compositor.wire_compositor(scene)
-    scene[WIRED_KEY] = lut_gen.exr_io.verify_bake(bake_dir)     # verified by build_groups: cached
+    scene[WIRED_KEY] = lut_gen.store.exr_io.verify_bake(bake_dir)     # verified by build_groups: cached
     scene[RESOLUTION_KEY] = resolution
     refresh(scene, force=True)
     luts.release_unused_images()
@@ -297,7 +297,7 @@ class BakeInfo:
         self.optical_depth = optical_depth = bpy.data.images.get(luts.image_name("optical_depth", key))
         if None in (self.multiple, self.single_mie, self.ambient, optical_depth):
             raise FileNotFoundError(f"the images of bake {key} are not loaded; run Set Up Scene")
-        self.params, self.dims = lut_gen.exr_io.read_header_params(Path(bpy.path.abspath(self.multiple.filepath)).parent)
+        self.params, self.dims = lut_gen.store.exr_io.read_header_params(Path(bpy.path.abspath(self.multiple.filepath)).parent)
         self.origin_transmittance = sun_lamps.OriginTransmittance(optical_depth, self.params)
         self._luts = None
 

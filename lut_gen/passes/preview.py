@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sampling import Luts
-from .sun_disc import limb_profile
+from ..tables.lookup import Luts
+from ..model.sun_disc import limb_profile
 
 # The sample's extraterrestrial sun: intensity 10, scattering scale 0.5 (DESIGN.md).
 SUN_INTENSITY = 10.0

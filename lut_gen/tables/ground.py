@@ -18,10 +18,10 @@ import math
 import numpy as np
 
 from . import parameterization as par
-from .atmosphere import mie_phase, rayleigh_phase
-from .geometry import distance_to_ground
+from ..model.atmosphere import mie_phase, rayleigh_phase
+from ..model.geometry import distance_to_ground
 from .interpolation import axis_weights, interpolate
-from .sampling import table_net_density
+from .optical_depth import table_net_density
 
 # Quadrature of the sky irradiance at the ground in the bake (upper hemisphere).
 IRRADIANCE_ZENITHS = 16

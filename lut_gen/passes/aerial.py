@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import parameterization as par
-from .atmosphere import densities, mie_phase, rayleigh_phase
-from .sampling import Luts
+from ..tables import parameterization as par
+from ..model.profiles import densities
+from ..model.atmosphere import mie_phase, rayleigh_phase
+from ..tables.lookup import Luts
 
 SINGLE_MODES = ("NONE", "INTEGRATION", "LUT")
 MULTIPLE_MODES = ("NONE", "OCCLUDED", "UNOCCLUDED")

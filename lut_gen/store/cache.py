@@ -5,10 +5,9 @@ import os
 from pathlib import Path
 from typing import Optional
 
-from .atmosphere import AtmosphereParams
-from .bake import Progress, bake, resolve_resolution
+from ..model.atmosphere import AtmosphereParams
+from ..tables.bake import Progress, bake, resolve_resolution
 from .exr_io import bake_key, is_intact, load, removed_if_left_empty, save
-from .sampling import Luts
 
 
 def default_cache_root() -> Path:

@@ -20,12 +20,15 @@ times the number density of a ``ozone_column`` Dobson-unit layer with Bruneton's
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from .profiles import densities
 
 DATA_FILE = Path(__file__).resolve().parent / "data" / "spectral_data.json"
 TRIPLE_WAVELENGTHS_NM = (680.0, 550.0, 440.0)     # the sample's wavelengths, red-green-blue
@@ -168,7 +171,6 @@ def _fit_paths(params):
     s = length[:, None] * u ** 2
     ds = np.gradient(s, axis=1)
     alt = np.sqrt(r[:, None] ** 2 + s * s + 2 * r[:, None] * mu[:, None] * s) - params.earth_radius
-    from .atmosphere import densities
     net = np.einsum("pkm,pk->pm", densities(params, alt), ds)
     return net[clear]
 
@@ -205,7 +207,6 @@ def rgb_coefficients(params):
 def triple_params(params, wavelengths_nm):
     """Sample-2013-style params whose three channels are the spectral media of ``params`` at
     three wavelengths: lets three-channel code (the brute-force reference) run per wavelength."""
-    import dataclasses
     lam = np.asarray(wavelengths_nm, dtype=np.float64)
     ozone = ozone_peak_absorption(params, lam)
     return dataclasses.replace(params, spectral=False,

@@ -19,10 +19,10 @@ import functools
 
 import numpy as np
 
-from . import ground as ground_light
-from . import parameterization as par
-from .interpolation import axis_weights, gather, geometric_lerp, packed_rows
-from .sampling import Luts, with_phases
+from ..tables import ground as ground_light
+from ..tables import parameterization as par
+from ..tables.interpolation import axis_weights, gather, geometric_lerp, packed_rows
+from ..tables.lookup import Luts, with_phases
 
 
 @functools.lru_cache(maxsize=2)

@@ -7,7 +7,7 @@ flipped so that row 0 is the bottom row, as Blender's image.pixels has it):
     single_mie_scattering.exr    4D atlas, Mie single scattering without its phase function
     higher_order_scattering.exr  4D atlas, orders 2..N / Rayleigh phase
     multiple_scattering.exr      4D atlas, single + higher
-    (all four divided by the ground-ray scale, lut_gen.sampling)
+    (all four divided by the ground-ray scale, lut_gen.tables.lookup)
     optical_depth.exr            (height x cos zenith): R, G, B = Rayleigh, Mie, ozone net density (m)
     ambient_skylight.exr         1 row: irradiance per unit sun against cos sun zenith
 
@@ -28,11 +28,12 @@ from typing import Optional
 
 import numpy as np
 
-from . import atlas, exr_min, manifest
+from ..tables import atlas
+from . import exr_min, manifest
 from .dir_lock import LOCK_NAME, locked
 from .atomic import atomic_path, default_mode
-from .atmosphere import AtmosphereParams
-from .sampling import Luts
+from ..model.atmosphere import AtmosphereParams
+from ..tables.lookup import Luts
 
 # Bump when the meaning or packing of the stored data changes; old caches then read as stale.
 # 2: single Mie scattering apart, ground-ray scale, spectral params.
@@ -147,7 +148,7 @@ def _header_key(path: Path) -> Optional[str]:
 
 
 def verify_bake(directory, key: Optional[str] = None) -> str:
-    """The bake key of ``directory`` when it holds one whole, undamaged bake (lut_gen.manifest:
+    """The bake key of ``directory`` when it holds one whole, undamaged bake (lut_gen.store.manifest:
     every file present and hashing to the manifest written after the bake's last rename, and
     each file's own header naming that bake: a manifest written over files of several bakes
     fails too); ``key``: and that it is this bake. Raises LutError naming the file and the fix."""

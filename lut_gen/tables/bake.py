@@ -8,7 +8,7 @@ Stages, each a pure function of AtmosphereParams:
                   L(n) = its integral along the view ray (eq. 2); summed into "higher"
   ambient         E_sky, eq. (3), over the upper hemisphere at 20 m
 
-Spectral params are integrated at the wavelengths of lut_gen.spectrum (every stage works on C
+Spectral params are integrated at the wavelengths of lut_gen.model.spectrum (every stage works on C
 channels at once: the optical-depth table holds net densities, which do not depend on
 wavelength) and converted to linear Rec.709 at the end.
 
@@ -38,12 +38,14 @@ from typing import Callable, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import parameterization as par
-from .atmosphere import AtmosphereParams, mie_phase, ozone_density, rayleigh_phase
-from .spectrum import Media, bake_media, spectral_resample_matrix
+from ..model.atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
+from ..model.profiles import ozone_density
+from ..model.spectrum import Media, bake_media, spectral_resample_matrix
 from .ground import GroundSource
-from .geometry import clustered_nodes, distance_to_sphere_exit, radius_along, ray_length
-from .interpolation import axis_weights, gather, geometric_lerp, packed_rows, resample_matrix, resample_sun_geometric
-from .sampling import EARTH_HIT_NET_DENSITY, Luts, below_first_row_factors
+from ..model.geometry import clustered_nodes, distance_to_sphere_exit, radius_along, ray_length
+from .interpolation import (axis_weights, gather, geometric_lerp, packed_rows, resample_matrix, resample_sun_geometric)
+from .optical_depth import EARTH_HIT_NET_DENSITY, below_first_row_factors
+from .lookup import Luts
 
 Progress = Callable[[str, float], None]
 
@@ -623,5 +625,5 @@ def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", ord
     problem = luts.value_problem()
     if problem:
         raise ValueError(f"these atmosphere parameters give unusable tables ({problem}); bring them closer to "
-                         "Earth's (see lut_gen.atmosphere.PARAMETER_RANGES)")
+                         "Earth's (see lut_gen.model.atmosphere.PARAMETER_RANGES)")
     return luts

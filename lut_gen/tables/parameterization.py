@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from .geometry import ground_ray_scale
+from ..model.geometry import ground_ray_scale
 
 ALPHA_POWER = 0.2          # eq. (5)
 THETA_POWER = 1.0          # eq. (7) used 1.5; see the module docstring

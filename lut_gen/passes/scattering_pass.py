@@ -9,22 +9,24 @@ Per pixel, with E the surface point (geometry) or the point where the view ray l
 shadow cascade (sky):
     geometry: L_surface T(C->P) + S(C->E) x sun x scale
     sky:      L_sky + (S(C->E) - S_unshadowed(C->E)) x sun x scale
-where S is the light-shaft in-scattering (lut_gen.aerial.light_shafts, the sample's modes) and
+where S is the light-shaft in-scattering (lut_gen.passes.aerial.light_shafts, the sample's modes) and
 S_unshadowed is eq. (8) over the multiple-scattering table, which the rendered sky already holds.
 Without light shafts S = S_unshadowed (aerial perspective only). With the epipolar technique
-both S and S_unshadowed come from its tables (lut_gen.epipolar_air), not from eq. (8) per pixel.
+both S and S_unshadowed come from its tables (lut_gen.passes.epipolar_air), not from eq. (8) per pixel.
 """
 from __future__ import annotations
 
+import dataclasses
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from . import aerial, epipolar, epipolar_air
-from .atomic import atomic_path
-from .sampling import Luts
-from .shadow_map import CASCADE_COLORS, Camera, ShadowCascades, select_cascade, visibility
+from ..store.atomic import atomic_path
+from ..tables.lookup import Luts
+from .shadow_map import CASCADE_COLORS, MIN_FORWARD_COSINE, Camera, ShadowCascades, select_cascade, visibility
 
 SKY_DEPTH = 1e9                 # Cycles' depth pass holds 1e10 for the sky
 SKY_CLIP_FRACTION = 0.95        # EEVEE's holds about the clip end (0.987 x clip end measured)
@@ -33,7 +35,6 @@ SKY_CLIP_FRACTION = 0.95        # EEVEE's holds about the clip end (0.987 x clip
 def sky_depth(clip_end: float) -> float:
     """Depth-pass values at or beyond this are sky (no geometry), for either engine."""
     return min(SKY_DEPTH, SKY_CLIP_FRACTION * clip_end)
-MIN_FORWARD_COSINE = 1e-3       # keeps the sky march length finite for rays across the view plane
 
 
 @dataclass
@@ -51,7 +52,7 @@ class PassSettings:
     scattering_scale: float = 0.5
     lighting_only: bool = False
     sun_strength: float = 10.0
-    scattering_technique: str = "BRUTE_FORCE"        # or "EPIPOLAR_SAMPLING" (lut_gen.epipolar)
+    scattering_technique: str = "BRUTE_FORCE"        # or "EPIPOLAR_SAMPLING" (lut_gen.passes.epipolar)
     epipolar_slices: int = 512
     samples_per_slice: int = 256
     initial_sample_step: int = 16
@@ -127,7 +128,7 @@ def sampling_red(radiance):
 def epipolar_pass(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades, settings: PassSettings,
                   width: int, height: int):
     """(unshadowed in-scattering, shadowed minus unshadowed, Show Sampling's overlay or None)
-    per unit sun of every pixel, from the epipolar tables (lut_gen.epipolar, epipolar_air)."""
+    per unit sun of every pixel, from the epipolar tables (lut_gen.passes.epipolar, epipolar_air)."""
     wanted = epipolar.for_render(epipolar.settings_from(settings), width, height)
     frame = epipolar.frame_for(camera, sun, width, height, float(cascades.far_depths[-1]), wanted)
     tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
@@ -207,8 +208,6 @@ def save_inputs(path, camera: Camera, sun_direction, cascades: ShadowCascades, s
                 resolution=None) -> Path:
     """Camera, sun, shadow cascades and settings of a frame as one .npz (atomic write), and the
     render's (width, height) when given (``pass`` then refuses passes of another size)."""
-    import dataclasses
-    import json
     arrays = dict(camera_position=camera.position, camera_rotation=camera.rotation,
                   tan_half_fov=np.asarray(camera.tan_half_fov), clip_end=np.asarray(camera.clip_end),
                   sun_direction=np.asarray(sun_direction, dtype=np.float64), frame=cascades.frame,
@@ -235,7 +234,6 @@ def check_passes_match(passes: dict, resolution, passes_path, inputs_path):
 def load_inputs(path):
     """(camera, sun direction, cascades, settings, the render's (width, height) or None for
     inputs saved without it) saved by ``save_inputs``; ValueError for a file that is not one."""
-    import json
     try:
         with np.load(Path(path)) as data:
             camera = Camera(data["camera_position"], data["camera_rotation"], tuple(data["tan_half_fov"]),

@@ -1,8 +1,9 @@
-"""Atmosphere media: constants, density profiles, phase functions, validation, presets.
+"""Atmosphere media: constants, phase functions, validation, presets (the density profiles are
+in lut_gen.model.profiles).
 
 Units are metres and 1/m. Colour triples are (red, green, blue) at 680/550/440 nm,
 the sample's wavelengths. A spectral bake (the default) reads them as three samples of a
-power law over wavelength (lut_gen.spectrum); the "Sample 2013" preset uses them directly as
+power law over wavelength (lut_gen.model.spectrum); the "Sample 2013" preset uses them directly as
 RGB, as the sample did. Everything here is a pure function of AtmosphereParams.
 """
 from __future__ import annotations
@@ -13,6 +14,8 @@ from typing import Tuple
 
 import numpy as np
 
+from . import spectrum
+
 Rgb = Tuple[float, float, float]
 
 WAVELENGTHS_NM: Rgb = (680.0, 550.0, 440.0)
@@ -22,8 +25,6 @@ AIR_MOLECULES_PER_M3 = 2.545e25
 AIR_DEPOLARIZATION = 0.035
 # Bruneton's ozone absorption at the same wavelengths (1/m at unit density).
 OZONE_ABSORPTION: Rgb = (0.650e-6, 1.881e-6, 0.085e-6)
-OZONE_PEAK_HEIGHT_M = 25_000.0
-OZONE_HALF_WIDTH_M = 15_000.0
 
 
 def rayleigh_scattering_from_air(wavelengths_nm: Rgb = WAVELENGTHS_NM) -> Rgb:
@@ -158,19 +159,19 @@ class AtmosphereParams:
 
     # RGB coefficients for code that works in RGB (node groups, the pass twins): the triples
     # themselves for Sample 2013 params, white-balanced spectral means and fitted extinction
-    # for spectral ones (lut_gen.spectrum.rgb_coefficients). The bake uses spectrum.bake_media.
+    # for spectral ones (lut_gen.model.spectrum.rgb_coefficients). The bake uses spectrum.bake_media.
     @property
     def rayleigh(self) -> np.ndarray:
         """Rayleigh scattering coefficient at sea level, RGB."""
         if self.spectral:
-            return np.array(_spectrum().rgb_coefficients(self)[0])
+            return np.array(spectrum.rgb_coefficients(self)[0])
         return np.asarray(self.rayleigh_scattering, dtype=np.float64)
 
     @property
     def mie(self) -> np.ndarray:
         """Mie scattering coefficient at sea level, aerosol density applied, RGB."""
         if self.spectral:
-            return np.array(_spectrum().rgb_coefficients(self)[1])
+            return np.array(spectrum.rgb_coefficients(self)[1])
         return np.asarray(self.mie_scattering, dtype=np.float64) * self.aerosol_density
 
     @property
@@ -184,7 +185,7 @@ class AtmosphereParams:
     def extinction_matrix(self) -> np.ndarray:
         """(3 media, 3 channels): RGB optical depth = net densities (R, M, O) @ this."""
         if self.spectral:
-            return _spectrum().rgb_coefficients(self)[2].copy()
+            return spectrum.rgb_coefficients(self)[2].copy()
         ozone = np.asarray(self.ozone_absorption, dtype=np.float64) * (1.0 if self.ozone else 0.0)
         mie = np.asarray(self.mie_scattering, dtype=np.float64) * self.aerosol_density
         return np.stack([np.asarray(self.rayleigh_scattering, dtype=np.float64),
@@ -205,11 +206,6 @@ class AtmosphereParams:
             raise ValueError(f"unknown atmosphere parameter(s): {', '.join(sorted(unknown))}")
         kwargs = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
         return cls(**kwargs)
-
-
-def _spectrum():
-    from . import spectrum     # imports this module: resolved at call time
-    return spectrum
 
 
 PRESETS = {
@@ -234,28 +230,6 @@ def _check_number(name, value, *, lower, upper):
         raise ValueError(f"{name} must be a number, got {value!r}")
     if not math.isfinite(value) or not lower <= value <= upper:
         raise ValueError(f"{name} must be between {lower:g} and {upper:g}, got {value!r}")
-
-
-# -- density profiles (relative to sea level, dimensionless) ---------------
-
-def rayleigh_density(params: AtmosphereParams, height_m):
-    return np.exp(-np.maximum(height_m, 0.0) / params.rayleigh_scale_height)
-
-
-def mie_density(params: AtmosphereParams, height_m):
-    return np.exp(-np.maximum(height_m, 0.0) / params.mie_scale_height)
-
-
-def ozone_density(params: AtmosphereParams, height_m):
-    """Bruneton's tent profile: 0 below 10 km and above 40 km, 1 at 25 km."""
-    tent = 1.0 - np.abs(np.asarray(height_m) - OZONE_PEAK_HEIGHT_M) / OZONE_HALF_WIDTH_M
-    return np.clip(tent, 0.0, 1.0)
-
-
-def densities(params: AtmosphereParams, height_m) -> np.ndarray:
-    """(..., 3) Rayleigh, Mie, ozone densities at the given heights."""
-    h = np.asarray(height_m)
-    return np.stack([rayleigh_density(params, h), mie_density(params, h), ozone_density(params, h)], axis=-1)
 
 
 # -- phase functions (normalised to 1 over the sphere) ----------------------

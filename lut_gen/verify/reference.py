@@ -46,15 +46,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .atmosphere import (
-    OZONE_HALF_WIDTH_M,
-    OZONE_PEAK_HEIGHT_M,
-    AtmosphereParams,
-    mie_density,
-    mie_phase,
-    rayleigh_density,
-    rayleigh_phase,
-)
+from ..model.profiles import OZONE_HALF_WIDTH_M, OZONE_PEAK_HEIGHT_M, mie_density, rayleigh_density
+from ..model import spectrum
+from ..model.atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
 
 __all__ = ["net_density_to_top", "transmittance_to_top", "single_scattering", "HIT_EARTH_NET_DENSITY"]
 
@@ -715,7 +709,7 @@ __all__ += ["second_order", "second_order_source", "sphere_phase_integrals", "SE
 # The bake of spectral params integrates at a few wavelengths and converts them to RGB. The
 # reference integrates every 10 nm from 360 to 830 nm (48 wavelengths, as Bruneton 2017's
 # reference) with the three-channel integrators above, three wavelengths at a time, and converts
-# with the same solar spectrum and colour-matching functions (lut_gen.spectrum.rgb_weights).
+# with the same solar spectrum and colour-matching functions (lut_gen.model.spectrum.rgb_weights).
 
 REFERENCE_WAVELENGTHS_NM = tuple(float(v) for v in range(360, 831, 10))
 
@@ -724,7 +718,6 @@ def per_wavelength(integrator, params: AtmosphereParams, *args, wavelengths_nm=R
                    **kwargs) -> np.ndarray:
     """(..., len(wavelengths)) ``integrator(params, *args, **kwargs)`` (a three-channel reference
     function) evaluated per wavelength on the spectral media of ``params``."""
-    from . import spectrum
     lam = np.asarray(wavelengths_nm, dtype=np.float64)
     padded = np.concatenate([lam, np.full(-len(lam) % 3, lam[-1])])
     parts = [integrator(spectrum.triple_params(params, padded[i:i + 3]), *args, **kwargs)
@@ -736,7 +729,6 @@ def spectral(integrator, params: AtmosphereParams, *args, wavelengths_nm=REFEREN
              **kwargs) -> np.ndarray:
     """(..., 3) linear Rec.709 per unit extraterrestrial sun of a three-channel reference
     integrator run per wavelength; the integrator itself for Sample 2013 (non-spectral) params."""
-    from . import spectrum
     if not params.spectral:
         return integrator(params, *args, **kwargs)
     radiance = per_wavelength(integrator, params, *args, wavelengths_nm=wavelengths_nm, **kwargs)

@@ -26,6 +26,8 @@ MAX_CANDIDATES = 1 << 22        # box texels per rasterisation batch (memory bou
 CASCADE_COLORS = np.array([(1.0, 0.3, 0.3), (0.3, 1.0, 0.3), (0.3, 0.3, 1.0), (1.0, 1.0, 0.3),
                            (1.0, 0.3, 1.0), (0.3, 1.0, 1.0), (1.0, 0.65, 0.2), (0.7, 0.7, 0.7)])
 
+MIN_FORWARD_COSINE = 1e-3       # keeps the sky march length finite for rays across the view plane
+
 
 def light_frame(sun_direction) -> np.ndarray:
     """(3, 3) rows right, up, sun: an orthonormal frame whose third axis points at the sun."""

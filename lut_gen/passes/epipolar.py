@@ -17,7 +17,7 @@ the refinement threshold the samples between them are marched too, the rest inte
 
 In the compositor each pixel finds its slice and sample, reads L, F and S at its own depth
 (trilinear), and applies the scattering modes from the in-scattering tables of
-lut_gen.epipolar_air. Depth breaks cost nothing: no pixel borrows another's depth.
+lut_gen.passes.epipolar_air. Depth breaks cost nothing: no pixel borrows another's depth.
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from . import aerial, min_max, render_detail
-from .shadow_map import Camera, ShadowCascades, visibility
+from .shadow_map import MIN_FORWARD_COSINE, Camera, ShadowCascades, visibility
 
 MIN_NEAR = 10.0                 # m: the distance grid is geometric from here (1 m: 4 dB worse on the sample)
 BORDER_POINTS = 256             # points per screen edge when finding the angle ranges
@@ -67,7 +67,7 @@ def settings_from(controls) -> EpipolarSettings:
 
 def for_render(wanted: EpipolarSettings, width: int, height: int) -> EpipolarSettings:
     """``wanted`` with its slices and samples capped at what a width x height render resolves
-    (lut_gen.render_detail; the add-on's settings arrive capped already)."""
+    (lut_gen.passes.render_detail; the add-on's settings arrive capped already)."""
     return replace(wanted, slices=render_detail.epipolar_slices(wanted.slices, width, height),
                    samples=render_detail.epipolar_samples(wanted.samples, width, height))
 
@@ -168,7 +168,7 @@ def frame_for(camera: Camera, sun_direction, width: int, height: int, far: float
     theta_lo, theta_hi = max(theta_lo - pixel, 0.0), min(theta_hi + pixel, np.pi)
     if phi_span < 2.0 * np.pi:
         phi_lo, phi_span = phi_lo - pixel, min(phi_span + 2.0 * pixel, 2.0 * np.pi)
-    t_max = max(far / max(corner_cosine(camera), aerial_min_forward()), 2.0 * MIN_NEAR)
+    t_max = max(far / max(corner_cosine(camera), MIN_FORWARD_COSINE), 2.0 * MIN_NEAR)
     return EpipolarFrame(sun, axis1, axis2, phi_lo, max(phi_span, 1e-6), theta_lo, max(theta_hi - theta_lo, 1e-6),
                          t_max, t_max / MIN_NEAR, settings.slices, settings.samples, settings.steps)
 
@@ -177,11 +177,6 @@ def corner_cosine(camera: Camera) -> float:
     """Cosine between the view axis and the screen's corner rays."""
     tx, ty = camera.tan_half_fov
     return 1.0 / np.sqrt(1.0 + tx * tx + ty * ty)
-
-
-def aerial_min_forward():
-    from .scattering_pass import MIN_FORWARD_COSINE
-    return MIN_FORWARD_COSINE
 
 
 def _screen_border(camera: Camera, width: int, height: int) -> np.ndarray:
@@ -228,7 +223,7 @@ def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Ca
           best_search: bool, first_cascade: int, luts=None, integrate: bool = False, maps=None):
     """(lit length, first lit, integrated or None) at the frame's distances for rays
     ``directions`` (n, 3): one shadow test per distance interval at its centre, as the brute
-    force march does per step. ``maps`` (lut_gen.min_max) skip the taps of decided points."""
+    force march does per step. ``maps`` (lut_gen.passes.min_max) skip the taps of decided points."""
     t = frame.distances()
     centres = 0.5 * (t[1:] + t[:-1])
     lengths = np.diff(t)

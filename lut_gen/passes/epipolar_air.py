@@ -18,11 +18,11 @@ I_s(end) + I_h(end) comes from the same tables, so the pass evaluates no eq. (8)
 all (the seed's epipolar technique interpolates all of its in-scattering too).
 
 Before each frame numpy evaluates I at the nodes of a coarser grid of the same (phi, theta)
-parametrisation as the lit-length tables (lut_gen.epipolar) and a geometric distance grid out
+parametrisation as the lit-length tables (lut_gen.passes.epipolar) and a geometric distance grid out
 to the camera's reach. The phase functions are divided out at each node (they are constant
 along a ray) and applied per pixel, so the Mie peak around the sun is exact and what is
 interpolated across directions varies slowly: Rayleigh single scattering / P_R, single Mie
-scattering / P_M and the higher orders / P_R, as the 4D tables store them (lut_gen.sampling).
+scattering / P_M and the higher orders / P_R, as the 4D tables store them (lut_gen.tables.lookup).
 """
 from __future__ import annotations
 
@@ -32,9 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import aerial
-from .atmosphere import mie_phase, rayleigh_phase
+from ..model.atmosphere import mie_phase, rayleigh_phase
 from .epipolar import MIN_NEAR, EpipolarFrame, corner_cosine, look_up, trilinear
-from .sampling import Luts
+from ..tables.lookup import Luts
 from .shadow_map import Camera
 
 AIR_SLICES = 64             # directions of the in-scattering grid at most (it varies slowly with direction)
@@ -147,7 +147,7 @@ def light_shaft_difference(luts: Luts, camera: Camera, end, frame: EpipolarFrame
                            air_tables: AirTables, single_mode: str = "LUT", multiple_mode: str = "UNOCCLUDED"):
     """((..., 3) unshadowed in-scattering along camera -> end per unit sun, (..., 3) shadowed
     minus unshadowed): the aerial perspective's in-scattering and the light shafts, both from
-    the tables: the lit-length tables (lut_gen.epipolar.build_tables on ``frame``) read at each
+    the tables: the lit-length tables (lut_gen.passes.epipolar.build_tables on ``frame``) read at each
     pixel's own depth, the in-scattering tables (``build`` on ``air``)."""
     ray = np.asarray(end, dtype=np.float64) - camera.position
     length = np.linalg.norm(ray, axis=-1)

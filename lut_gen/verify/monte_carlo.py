@@ -1,9 +1,9 @@
 """Monte Carlo path tracer of the atmosphere: an independent reference for multiple scattering.
 
 ``radiance_by_order`` estimates the radiance reaching a viewer, per unit extraterrestrial sun
-irradiance (the unit of ``lut_gen.reference.single_scattering``), split by scattering order.
+irradiance (the unit of ``lut_gen.verify.reference.single_scattering``), split by scattering order.
 It shares no code with the baker (lut_gen.bake, sampling, ground): only the media definitions
-of lut_gen.atmosphere (densities, phase functions). Everything is float64 numpy, vectorised over
+of lut_gen.model.atmosphere (densities, phase functions). Everything is float64 numpy, vectorised over
 the paths of a batch.
 
 Orders
@@ -66,16 +66,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .atmosphere import (
-    OZONE_HALF_WIDTH_M,
-    OZONE_PEAK_HEIGHT_M,
-    AtmosphereParams,
-    mie_density,
-    mie_phase,
-    ozone_density,
-    rayleigh_density,
-    rayleigh_phase,
-)
+from ..model.profiles import (OZONE_HALF_WIDTH_M, OZONE_PEAK_HEIGHT_M, mie_density, ozone_density, rayleigh_density)
+from ..model.atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
 
 __all__ = ["OrderRadiance", "radiance_by_order", "DEFAULT_PATHS"]
 
@@ -526,7 +518,7 @@ def radiance_by_order(params: AtmosphereParams, height_m: float, cos_view_zenith
     """
     if params.spectral:
         raise ValueError("radiance_by_order needs three-channel params (spectral=False); "
-                         "convert with lut_gen.spectrum.triple_params")
+                         "convert with lut_gen.model.spectrum.triple_params")
     if int(orders) < 1 or int(paths) < 2:
         raise ValueError(f"need orders >= 1 and paths >= 2, got {orders}, {paths}")
     orders, paths = int(orders), int(paths)

@@ -1,1 +1,0 @@
-"""bpy-free post-processing: numpy twins of the compositor passes."""
