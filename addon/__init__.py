@@ -1,28 +1,16 @@
-"""Blender-side add-on code (operators, properties, UI) for Outdoor Light Scattering.
+"""Blender-side add-on code (settings, operators, handlers, UI) for Outdoor Light Scattering.
 
 ``register()`` registers, in order: the settings PropertyGroup and ``Scene.ols`` (props), the
-operators (``ops.CLASSES``, when ``addon/ops.py`` exists) and their app handlers
-(``ops.register_handlers()``, when defined), then the sidebar panel (ui). ``unregister()``
+operators (ops), the app handlers (handlers), then the sidebar panel (ui). ``unregister()``
 undoes the same steps in reverse order. A step that fails part-way rolls back the steps
 already done, so a failed register leaves Blender as it was.
 """
-import importlib
-import importlib.util
-
 import bpy
 
-from . import props, ui
+from . import handlers, ops, props, ui
 
 # Undo callables for the steps register() completed, in order.
 _undo = []
-
-
-def _ops_module():
-    """``addon.ops`` if that module exists, else None (the operators land separately)."""
-    name = f"{__package__}.ops"
-    if importlib.util.find_spec(name) is None:
-        return None
-    return importlib.import_module(name)
 
 
 def _register_classes(classes):
@@ -39,15 +27,9 @@ def register():
         bpy.types.Scene.ols = bpy.props.PointerProperty(
             type=props.OLSSettings, name="Outdoor Light Scattering")
         _undo.append(_delete_scene_pointer)
-
-        ops = _ops_module()
-        if ops is not None:
-            _register_classes(getattr(ops, "CLASSES", ()))
-            if callable(getattr(ops, "register_handlers", None)):
-                ops.register_handlers()
-                if callable(getattr(ops, "unregister_handlers", None)):
-                    _undo.append(ops.unregister_handlers)
-
+        _register_classes(ops.CLASSES)
+        handlers.register()
+        _undo.append(handlers.unregister)
         _register_classes(ui.CLASSES)
     except Exception:
         unregister()

@@ -19,11 +19,14 @@ from pathlib import Path
 import bpy
 
 from .. import lut_gen
-from . import ops, props
+from . import baking
 from .progress_lines import ProgressLines, render_progress
-from .scene import adaptation, adaptation_plan, checks, luts, packed_tables
+from .scene import names
 from .scene import sun as sun_lamps
-from .scene import wiring
+from .scene.frame import adaptation, adaptation_plan
+from .scene.setup import checks, wiring
+from .scene.tables import luts, packed_tables
+from .settings import atmosphere_params
 
 ENGINES = {"CYCLES": "CYCLES", "EEVEE": "BLENDER_EEVEE"}
 # Looks for the sample scene (and any scene): sun (elevation, azimuth from +Y toward +X, in degrees)
@@ -247,7 +250,7 @@ def render(scene, args):
 
 def wire(scene, args):
     print("scene: baking or finding the tables", flush=True)
-    directory = ops.bake_if_needed(props.atmosphere_params(scene.ols).validate(), args.tables,
+    directory = baking.bake_if_needed(atmosphere_params(scene.ols).validate(), args.tables,
                                    progress=ProgressLines("bake"))
     print(f"scene: wiring it to the tables in {directory} (node groups, images, compositor)", flush=True)
     terrain = [o for o in scene.objects if o.select_get() and o.type == "MESH"]
@@ -265,14 +268,14 @@ def main(argv=None) -> int:
                                  "libegl-mesa0 libgl1-mesa-dri); use --engine CYCLES")
             print(EGL_NOTE, flush=True)
         scene = prepare(args)
-        if scene.get(wiring.WIRED_KEY):
+        if scene.get(names.WIRED_KEY):
             # A wired file: its tables were re-baked on load where they were missing or damaged
-            # (ops.on_file_loaded); never touch, let alone render, tables that still fail.
-            luts.verify_wired(scene[wiring.WIRED_KEY])
+            # (handlers.on_file_loaded); never touch, let alone render, tables that still fail.
+            luts.verify_wired(scene[names.WIRED_KEY])
         if args.pack:
-            if not scene.get(wiring.WIRED_KEY):
+            if not scene.get(names.WIRED_KEY):
                 wire(scene, args)           # with the file's own settings: the render options are not saved
-            size = packed_tables.pack(scene[wiring.WIRED_KEY])
+            size = packed_tables.pack(scene[names.WIRED_KEY])
             try:
                 bpy.ops.wm.save_mainfile()
             except RuntimeError as exc:
@@ -281,7 +284,7 @@ def main(argv=None) -> int:
             if args.output is None:
                 return 0
         apply_options(scene, args)
-        if not scene.get(wiring.WIRED_KEY):
+        if not scene.get(names.WIRED_KEY):
             wire(scene, args)
         written = render(scene, args)
     except (BatchError, wiring.SetupError, lut_gen.LutError, ValueError) as exc:

@@ -1,47 +1,29 @@
-"""Operators (bake tables, set up the scene, render) and the app handlers that keep the Sun
-lamp's colour and animation current. The bpy layer only: the work lives in scene/ and lut_gen."""
+"""Operators: bake tables, set up the scene, render, measure the light adaptation, pack the
+tables. The bpy layer only: the work lives in baking.py, scene/ and lut_gen; the app handlers
+are in handlers.py."""
 from __future__ import annotations
 
-import os
-import sys
-import threading
-import traceback
+import tempfile
 from pathlib import Path
 
 import bpy
-from bpy.app.handlers import persistent
 from bpy.props import BoolProperty, EnumProperty, StringProperty
 
 from .. import lut_gen
-from . import props
-from .scene import (adaptation, adaptation_plan, animation, checks, compositor, frame_update, luts,
-                    packed_tables, wiring)
+from . import baking
+from .scene import names
 from .scene import sun as sun_lamps
+from .scene.frame import adaptation_plan
+from .scene.setup import checks, wiring
+from .scene.tables import packed_tables, wired_bake
+from .settings import atmosphere_params
 
 RESOLUTION_ITEMS = [("default", "Default", "The sample's 32 x 128 x 64 x 16 tables (~10-20 s)"),
                     ("draft", "Draft", "Half every dimension (~2 s)")]
 
 
-def bake_directory(params, resolution="default") -> Path:
-    return lut_gen.store.cache.cache_directory(params, resolution)
-
-
-def bake_if_needed(params, resolution, progress=None) -> Path:
-    """The cache folder of these tables, baked first when it does not hold them (a damaged
-    or foreign bake there is replaced: the folder is named by the key)."""
-    return lut_gen.store.cache.bake_into(params, resolution=resolution, progress=progress, overwrite=True)[0]
-
-
 def terrain_candidates(context):
     return [o for o in context.selected_objects if o.type == "MESH"]
-
-
-def swap_in(scene, directory):
-    """Point an already wired scene at another bake (after a re-bake): rebuild the groups."""
-    wiring.build_groups(directory, scene.render.engine)
-    scene[wiring.WIRED_KEY] = lut_gen.store.exr_io.verify_bake(directory)   # verified by build_groups: cached
-    wiring.refresh(scene, force=True)
-    luts.release_unused_images()
 
 
 class OLS_OT_bake_luts(bpy.types.Operator):
@@ -58,8 +40,8 @@ class OLS_OT_bake_luts(bpy.types.Operator):
         try:
             if self.setup_after:
                 wiring.wire_scene(scene, directory, terrain_candidates(context), resolution=self.resolution)
-            elif scene.get(wiring.WIRED_KEY):
-                swap_in(scene, directory)
+            elif scene.get(names.WIRED_KEY):
+                baking.swap_in(scene, directory)
         except (wiring.SetupError, lut_gen.LutError, OSError, RuntimeError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
@@ -69,14 +51,14 @@ class OLS_OT_bake_luts(bpy.types.Operator):
     def execute(self, context):
         """Blocking bake (scripts and background mode) with the window manager's progress."""
         try:
-            params = props.atmosphere_params(context.scene.ols).validate()
+            params = atmosphere_params(context.scene.ols).validate()
         except ValueError as exc:
             self.report({"ERROR"}, f"Invalid atmosphere setting: {exc}")
             return {"CANCELLED"}
         wm = context.window_manager
         wm.progress_begin(0, 100)
         try:
-            directory = bake_if_needed(params, self.resolution,
+            directory = baking.bake_if_needed(params, self.resolution,
                                        progress=lambda stage, f: wm.progress_update(int(f * 100)))
         except (lut_gen.LutError, OSError) as exc:
             self.report({"ERROR"}, str(exc))
@@ -88,26 +70,13 @@ class OLS_OT_bake_luts(bpy.types.Operator):
     def invoke(self, context, event):
         """In the UI: bake on a worker thread, keep Blender responsive, swap in when done."""
         try:
-            self._params = props.atmosphere_params(context.scene.ols).validate()
+            self._params = atmosphere_params(context.scene.ols).validate()
         except ValueError as exc:
             self.report({"ERROR"}, f"Invalid atmosphere setting: {exc}")
             return {"CANCELLED"}
-        directory = bake_directory(self._params, self.resolution)
-        if lut_gen.store.exr_io.is_intact(directory, directory.name):
-            return self._finish(context, directory)
-        self._state = {"stage": "starting", "fraction": 0.0, "error": None, "done": False}
-
-        def work():
-            try:
-                bake_if_needed(self._params, self.resolution,
-                               progress=lambda stage, f: self._state.update(stage=stage, fraction=f))
-            except Exception as exc:   # reported on the main thread
-                self._state["error"] = f"{exc}"
-                traceback.print_exc()
-            self._state["done"] = True
-
-        self._thread = threading.Thread(target=work, daemon=True)
-        self._thread.start()
+        if baking.is_baked(self._params, self.resolution):
+            return self._finish(context, baking.bake_directory(self._params, self.resolution))
+        self._bake = baking.BackgroundBake(self._params, self.resolution)
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.2, window=context.window)
         wm.progress_begin(0, 100)
@@ -118,18 +87,18 @@ class OLS_OT_bake_luts(bpy.types.Operator):
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         wm = context.window_manager
-        wm.progress_update(int(self._state["fraction"] * 100))
-        context.workspace.status_text_set(f"Baking atmosphere tables: {self._state['stage']} "
-                                          f"{self._state['fraction'] * 100:.0f}%")
-        if not self._state["done"]:
+        bake = self._bake
+        wm.progress_update(int(bake.fraction * 100))
+        context.workspace.status_text_set(f"Baking atmosphere tables: {bake.stage} {bake.fraction * 100:.0f}%")
+        if not bake.done:
             return {"RUNNING_MODAL"}
         wm.event_timer_remove(self._timer)
         wm.progress_end()
         context.workspace.status_text_set(None)
-        if self._state["error"]:
-            self.report({"ERROR"}, f"Baking failed: {self._state['error']}")
+        if bake.error:
+            self.report({"ERROR"}, f"Baking failed: {bake.error}")
             return {"CANCELLED"}
-        return self._finish(context, bake_directory(self._params, self.resolution))
+        return self._finish(context, bake.directory)
 
 
 class OLS_OT_setup_scene(bpy.types.Operator):
@@ -145,8 +114,8 @@ class OLS_OT_setup_scene(bpy.types.Operator):
         scene = context.scene
         try:
             wiring.check_scene(scene)
-            params = props.atmosphere_params(scene.ols).validate()
-            directory = bake_if_needed(params, self.resolution)
+            params = atmosphere_params(scene.ols).validate()
+            directory = baking.bake_if_needed(params, self.resolution)
             wiring.wire_scene(scene, directory, terrain_candidates(context), resolution=self.resolution)
         except (wiring.SetupError, lut_gen.LutError, OSError, ValueError, RuntimeError) as exc:
             self.report({"ERROR"}, str(exc))
@@ -157,12 +126,11 @@ class OLS_OT_setup_scene(bpy.types.Operator):
     def invoke(self, context, event):
         try:
             wiring.check_scene(context.scene)
-            params = props.atmosphere_params(context.scene.ols).validate()
+            params = atmosphere_params(context.scene.ols).validate()
         except (wiring.SetupError, ValueError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        directory = bake_directory(params, self.resolution)
-        if not lut_gen.store.exr_io.is_intact(directory, directory.name):
+        if not baking.is_baked(params, self.resolution):
             # Not baked yet (or damaged): bake in the background, then set up.
             return bpy.ops.ols.bake_luts("INVOKE_DEFAULT", resolution=self.resolution, setup_after=True)
         return self.execute(context)
@@ -177,7 +145,6 @@ def render_path(filepath: str) -> Path:
     if filepath.endswith(("/", "\\")) or Path(bpy.path.abspath(filepath)).is_dir():
         raise ValueError(f"{filepath} is a folder: give a file name in it, such as {filepath.rstrip('/')}/render.png")
     if filepath.startswith("//") and not bpy.data.filepath:
-        import tempfile
         return Path(tempfile.gettempdir()) / filepath[2:]
     return Path(bpy.path.abspath(filepath))
 
@@ -197,7 +164,7 @@ class OLS_OT_render(bpy.types.Operator):
         if sun_lamps.find_sun(scene) is None:
             self.report({"ERROR"}, "The scene has no Sun lamp: run Set Up Scene")
             return {"CANCELLED"}
-        problem = wiring.table_problem(scene)
+        problem = wired_bake.table_problem(scene)
         if problem is not None:
             self.report({"ERROR"}, f"Not rendering: {problem}")
             return {"CANCELLED"}
@@ -228,7 +195,7 @@ class _OnWiredScene:
 
     @classmethod
     def poll(cls, context):
-        return context.scene is not None and bool(context.scene.get(wiring.WIRED_KEY))
+        return context.scene is not None and bool(context.scene.get(names.WIRED_KEY))
 
 
 class OLS_OT_measure_adaptation(_OnWiredScene, bpy.types.Operator):
@@ -248,7 +215,7 @@ class OLS_OT_measure_adaptation(_OnWiredScene, bpy.types.Operator):
             self.report({"ERROR"}, "Compositing is off (Output Properties > Post Processing): the tone "
                                    "mapping does not run, so there is no adaptation to measure")
             return {"CANCELLED"}
-        problem = wiring.table_problem(scene)
+        problem = wired_bake.table_problem(scene)
         if problem is not None:             # its pre-pass renders: refuse as the Render operator does
             self.report({"ERROR"}, f"Cannot measure the light adaptation: {problem}")
             return {"CANCELLED"}
@@ -271,184 +238,12 @@ class OLS_OT_pack_tables(_OnWiredScene, bpy.types.Operator):
 
     def execute(self, context):
         try:
-            size = packed_tables.pack(context.scene[wiring.WIRED_KEY])
+            size = packed_tables.pack(context.scene[names.WIRED_KEY])
         except lut_gen.LutError as exc:
             self.report({"ERROR"}, f"Cannot pack the tables: {exc}")
             return {"CANCELLED"}
         self.report({"INFO"}, f"Packed {size / 2**20:.0f} MiB of tables; save the file to keep them")
         return {"FINISHED"}
-
-
-# -- handlers ---------------------------------------------------------------------------------
-
-def _update_scene(scene):
-    sun = sun_lamps.find_sun(scene)
-    if sun is None or not scene.get(wiring.WIRED_KEY):
-        return
-    try:
-        wiring.match_engine(scene)
-        wiring.match_light_shaft_layout(scene)
-        if scene.ols.animate_sun:
-            elevation, azimuth = animation.sun_angles_for_frame(scene.frame_current, scene.ols.day_start_frame,
-                                                                scene.ols.day_end_frame)
-            sun_lamps.set_sun_angles(sun, elevation, azimuth)
-        wiring.refresh(scene)
-    except (lut_gen.LutError, OSError, ValueError) as exc:
-        # Once per problem: depsgraph updates come many times a second while a user works.
-        if str(exc) != _reported.get("problem"):
-            _reported["problem"] = str(exc)
-            print(f"Outdoor Light Scattering: cannot update the sky: {exc}")
-
-
-_reported = {}
-
-
-@persistent
-def on_frame_change(scene, depsgraph=None):
-    _update_scene(scene)
-
-
-@persistent
-def on_depsgraph_update(scene, depsgraph=None):
-    frame_update.note_depsgraph_update(depsgraph)
-    _update_scene(scene)
-
-
-def _match_layout(scene):
-    """wiring.match_light_shaft_layout; the problem that stopped it, or None."""
-    try:
-        wiring.match_light_shaft_layout(scene)
-    except (ValueError, lut_gen.LutError, OSError, KeyError) as exc:
-        return exc
-    return None
-
-
-def _update_frame(scene, depsgraph):
-    """Shadow maps and frame values before the frame is composited. Where they cannot be made,
-    the light-shaft pass is off for this render and the reason printed (the render completes)."""
-    if not scene.get(wiring.WIRED_KEY):
-        return
-    # First: the settings may have changed the layout since the last depsgraph update (scripts
-    # set controls without one), and sync_settings feeds the groups it builds.
-    problem = _match_layout(scene)
-    compositor.sync_settings(scene)     # e.g. the output format: OpenEXR saves scene-linear
-    compositor.sync_layers_output(scene, rendering=True)
-    if problem is None:
-        try:
-            if frame_update.update_frame(scene, depsgraph):
-                for message in checks.render_problems(scene, depsgraph):
-                    print(f"Outdoor Light Scattering: {message}")
-        except ValueError as exc:       # a ShadowMapError (a ValueError) says what to change
-            problem = exc
-    if problem is not None:
-        compositor.disable_light_shafts(scene)
-        print(f"Outdoor Light Scattering: light shafts are off for this render: {problem}")
-
-
-@persistent
-def on_render_pre(scene, *_args):
-    _update_frame(scene, bpy.context.evaluated_depsgraph_get())
-
-
-@persistent
-def on_frame_change_post(scene, depsgraph=None):
-    """In an animation render this runs after render_pre, with the frame's evaluated state."""
-    if frame_update.rendering() and depsgraph is not None:
-        _update_frame(scene, depsgraph)
-
-
-@persistent
-def on_render_init(scene=None, *_args):
-    frame_update.set_rendering(True)
-    problem = wiring.table_problem(scene)
-    if problem is None:
-        return
-    if bpy.app.background:
-        # A farm's `blender -b shot.blend -a` (no script of ours runs before it): a handler cannot
-        # cancel the render, so the process ends here, with one line and status 1, before any
-        # frame is written with a wrong sky. scripts/render.py refuses such tables before this.
-        print(f"error: Outdoor Light Scattering: scene {scene.name!r}: {problem}; nothing was rendered",
-              file=sys.stderr, flush=True)
-        sys.stdout.flush()
-        os._exit(1)
-    # In the UI the render cannot be stopped from here; the file load started a re-bake.
-    print(f"Outdoor Light Scattering: scene {scene.name!r}: this render uses damaged tables: {problem}")
-
-
-@persistent
-def on_render_end(*_args):
-    frame_update.set_rendering(False)
-    for scene in bpy.data.scenes:
-        if scene.get(wiring.WIRED_KEY):
-            compositor.sync_layers_output(scene, rendering=False)
-
-
-@persistent
-def on_data_replaced(*_args):
-    """Undo, redo and file loads replace Blender's data: cached image references go stale."""
-    wiring.forget_caches()
-
-
-@persistent
-def on_file_loaded(*_args):
-    """A wired file opened where its tables are not baked, or are damaged (another machine, a
-    cleared cache, a truncated file): bake them again for the scene's settings and swap them in."""
-    wiring.forget_caches()
-    for scene in bpy.data.scenes:
-        key = scene.get(wiring.WIRED_KEY)
-        problem = wiring.table_problem(scene)
-        if problem is None:             # not wired, or its tables verify
-            continue
-        if packed_tables.is_packed(key):
-            try:
-                directory = packed_tables.restore(key)
-                print(f"Outdoor Light Scattering: scene {scene.name!r}: using the tables packed in the file "
-                      f"(written to {directory})")
-                continue
-            except (lut_gen.LutError, OSError) as exc:
-                problem = exc
-        print(f"Outdoor Light Scattering: scene {scene.name!r}: {problem}; baking them again")
-        resolution = scene.get(wiring.RESOLUTION_KEY, "default")
-        try:
-            if bpy.app.background:
-                swap_in(scene, bake_if_needed(props.atmosphere_params(scene.ols).validate(), resolution))
-            else:
-                bpy.app.timers.register(lambda: invoke_bake_in_window(resolution), first_interval=0.1)
-        except (lut_gen.LutError, OSError, ValueError) as exc:
-            print(f"Outdoor Light Scattering: cannot bake the tables of scene {scene.name!r}: {exc}")
-
-
-def invoke_bake_in_window(resolution="default"):
-    """Start the background bake from a timer (no operator context there): borrow a window."""
-    window = next(iter(bpy.context.window_manager.windows), None)
-    if window is not None:
-        with bpy.context.temp_override(window=window):
-            bpy.ops.ols.bake_luts("INVOKE_DEFAULT", resolution=resolution)
-
-
-HANDLERS = ((bpy.app.handlers.frame_change_pre, on_frame_change),
-            (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
-            (bpy.app.handlers.render_pre, on_render_pre),
-            (bpy.app.handlers.frame_change_post, on_frame_change_post),
-            (bpy.app.handlers.render_init, on_render_init),
-            (bpy.app.handlers.render_complete, on_render_end),
-            (bpy.app.handlers.render_cancel, on_render_end),
-            (bpy.app.handlers.undo_post, on_data_replaced),
-            (bpy.app.handlers.redo_post, on_data_replaced),
-            (bpy.app.handlers.load_post, on_file_loaded)) + adaptation.HANDLERS
-
-
-def register_handlers():
-    for handlers, function in HANDLERS:
-        if function not in handlers:
-            handlers.append(function)
-
-
-def unregister_handlers():
-    for handlers, function in HANDLERS:
-        while function in handlers:
-            handlers.remove(function)
-    wiring.forget_caches()
 
 
 CLASSES = (OLS_OT_bake_luts, OLS_OT_setup_scene, OLS_OT_render, OLS_OT_measure_adaptation, OLS_OT_pack_tables)

@@ -1,143 +1,20 @@
-"""The add-on's settings: one PropertyGroup on the Scene (``scene.ols``).
+"""The add-on's controls: one PropertyGroup on the Scene (``scene.ols``).
 
 Every control of the sample's three GUI control sets (basic, additional, tone mapping), with
 the sample's names in snake_case and the Intel sample's defaults and ranges. The windowing-only
 controls (full screen, VSync) and the pure GPU-performance switches of the sample (cascade
 processing mode, min/max texture format) have no meaning in Blender and are left out.
 
-``atmosphere_params(settings)`` maps the settings to the table parameters of ``lut_gen``.
+How the render reads them (clamped, capped, mapped to table parameters) is settings.py.
 """
-import math
-
 import bpy
-import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty
 
-from ..lut_gen.passes import render_detail
-from ..lut_gen.model.atmosphere import (DEFAULT_GROUND_ALBEDO, DEFAULT_RAYLEIGH_SCATTERING, AtmosphereParams, preset)
-
-CONTROL_SETS = ("BASIC", "ADDITIONAL", "TONE_MAPPING")
-
-# The controls of each set, in the sample's panel order.
-PROPERTIES_BY_SET = {
-    "BASIC": [
-        "enable_light_scattering",
-        "enable_light_shafts",
-        "scattering_technique",
-        "shadow_map_resolution",
-        "num_integration_steps",
-        "epipolar_slices",
-        "samples_per_slice",
-        "initial_sample_step",
-        "epipole_sampling_density",
-        "refinement_threshold",
-        "scattering_scale",
-        "show_sampling",
-        "use_min_max_optimization",
-        "optimize_sample_locations",
-        "correct_depth_breaks",
-        "show_depth_breaks",
-        "lighting_only",
-    ],
-    "ADDITIONAL": [
-        "single_scattering_mode",
-        "multiple_scattering_mode",
-        "num_cascades",
-        "show_cascades",
-        "smooth_shadows",
-        "best_cascade_search",
-        "cascade_partitioning_factor",
-        "first_cascade_to_ray_march",
-        "extinction_evaluation_mode",
-        "refinement_criterion",
-        "use_custom_scattering_coeffs",
-        "rayleigh_color",
-        "mie_color",
-        "aerosol_density",
-        "aerosol_absorption",
-        "atmosphere_preset",
-        "ground_albedo",
-        "ozone_column",
-        "animate_sun",
-        "day_start_frame",
-        "day_end_frame",
-    ],
-    "TONE_MAPPING": [
-        "middle_gray",
-        "white_point",
-        "luminance_saturation",
-        "auto_exposure",
-        "tone_mapping_operator",
-        "light_adaptation",
-        "tone_map_exr",
-    ],
-}
-
-# Controls that act on the render today; the others belong to the epipolar sampling technique,
-# which is not built yet (the brute-force per-pixel pass is).
-_LIVE_NOW = {
-    "scattering_scale",
-    "use_custom_scattering_coeffs",
-    "rayleigh_color",
-    "mie_color",
-    "aerosol_density",
-    "aerosol_absorption",
-    "atmosphere_preset",
-    "ground_albedo",
-    "ozone_column",
-    "animate_sun",
-    "day_start_frame",
-    "day_end_frame",
-    "middle_gray",
-    "white_point",
-    "luminance_saturation",
-    "auto_exposure",
-    "tone_mapping_operator",
-    "light_adaptation",
-    "tone_map_exr",
-    "enable_light_scattering",
-    "lighting_only",
-    "enable_light_shafts",
-    "shadow_map_resolution",
-    "num_integration_steps",
-    "single_scattering_mode",
-    "multiple_scattering_mode",
-    "num_cascades",
-    "show_cascades",
-    "smooth_shadows",
-    "best_cascade_search",
-    "cascade_partitioning_factor",
-    "first_cascade_to_ray_march",
-    "scattering_technique",
-    "epipolar_slices",
-    "samples_per_slice",
-    "initial_sample_step",
-    "epipole_sampling_density",
-    "refinement_threshold",
-    "show_sampling",
-    "use_min_max_optimization",
-}
-LATER_ISSUE = frozenset(name for names in PROPERTIES_BY_SET.values() for name in names) - _LIVE_NOW
-
-# Why each greyed control has no effect in this version's epipolar design (lut_gen.passes.epipolar).
-LATER_NOTES = {
-    "optimize_sample_locations": "(no effect: samples are spaced by angle from the sun, so short epipolar "
-                                 "lines are not oversampled)",
-    "correct_depth_breaks": "(not needed: each pixel reads the epipolar tables at its own depth, so no pixel "
-                            "is interpolated across a depth break)",
-    "show_depth_breaks": "(not needed: each pixel reads the epipolar tables at its own depth, so there are no "
-                         "depth breaks to correct)",
-    "extinction_evaluation_mode": "(extinction is always evaluated per pixel)",
-    "refinement_criterion": "(refinement always compares the lit length of neighbouring samples; depth plays "
-                            "no part since each pixel uses its own)",
-}
-LATER_NOTE = "(not built in this version)"
-
-# The largest default Rayleigh coefficient (blue); the Rayleigh colour is relative to it.
-RAYLEIGH_SCATTERING_SCALE = max(DEFAULT_RAYLEIGH_SCATTERING)
-DEFAULT_RAYLEIGH_COLOR = tuple(c / RAYLEIGH_SCATTERING_SCALE for c in DEFAULT_RAYLEIGH_SCATTERING)
-DEFAULT_MIE_COLOR = (1.0, 1.0, 1.0)
-
+from ..lut_gen.model.atmosphere import DEFAULT_GROUND_ALBEDO
+from . import baking
+from .scene import names
+from .scene.setup import compositor
+from .settings import DEFAULT_MIE_COLOR, DEFAULT_RAYLEIGH_COLOR, WITHOUT_EFFECT
 
 REBAKE_DELAY_S = 0.75     # wait for a slider drag to settle before re-baking
 
@@ -145,7 +22,7 @@ REBAKE_DELAY_S = 0.75     # wait for a slider drag to settle before re-baking
 def _rebake_soon(settings, context):
     """Changing the media re-bakes the tables in the background and swaps them into a wired
     scene (interactive sessions only; scripts call bpy.ops.ols.bake_luts themselves)."""
-    if bpy.app.background or context.scene is None or not context.scene.get("ols_bake_key"):
+    if bpy.app.background or context.scene is None or not context.scene.get(names.WIRED_KEY):
         return
     if bpy.app.timers.is_registered(_start_rebake):
         bpy.app.timers.unregister(_start_rebake)
@@ -159,7 +36,6 @@ def _sync_compositor(settings, context):
     animation frame's frame_change_pre (which comes before the frame's compositor depsgraph)
     rebuild them once. A script setting ten controls used to rebuild them ten times, ~1 s each."""
     if context.scene is not None:
-        from .scene import compositor
         compositor.sync_settings(context.scene)
 
 
@@ -171,14 +47,13 @@ def _capture_day_range(settings, context):
 
 
 def _start_rebake():
-    from . import ops
-    ops.invoke_bake_in_window(bpy.context.scene.get("ols_table_resolution", "default"))
+    baking.invoke_bake_in_window(bpy.context.scene.get(names.RESOLUTION_KEY, "default"))
     return None
 
 
 def _d(name, text):
-    """Tooltip for control ``name``; controls in LATER_ISSUE say when they take effect."""
-    return f"{text} {LATER_NOTES.get(name, LATER_NOTE)}" if name in LATER_ISSUE else text
+    """Tooltip for control ``name``; a control without effect here says why."""
+    return f"{text} {WITHOUT_EFFECT[name]}" if name in WITHOUT_EFFECT else text
 
 
 class OLSSettings(bpy.types.PropertyGroup):
@@ -573,89 +448,6 @@ class OLSSettings(bpy.types.PropertyGroup):
                     "scene-linear radiance with the atmosphere applied, as any Blender render",
         default=False,
         update=_sync_compositor,
-    )
-
-
-def safe_value(settings, name: str):
-    """``settings.<name>`` as the render may use it: a float that is NaN or infinite (set from
-    Python) reads as the control's default, and anything past the control's range (an
-    ID-property write bypasses it) is clamped into it. One NaN control turned the whole
-    composite NaN before."""
-    value = getattr(settings, name)
-    prop = settings.bl_rna.properties.get(name)
-    if prop is None or prop.type not in {"FLOAT", "INT"} or getattr(prop, "array_length", 0):
-        return value
-    if prop.type == "FLOAT" and not math.isfinite(value):
-        value = prop.default
-    return type(value)(min(max(value, prop.hard_min), prop.hard_max))
-
-
-class Sanitized:
-    """scene.ols as the render reads it: every number through safe_value, and the shadow-map
-    resolution, epipolar slices and samples capped at what the scene's render size can resolve
-    (lut_gen.passes.render_detail)."""
-
-    def __init__(self, settings):
-        self._settings = settings
-        scene = settings.id_data
-        render = getattr(scene, "render", None)
-        self._capped = {} if render is None else render_detail.capped_fields(
-            *render_detail.render_size(render.resolution_x, render.resolution_y, render.resolution_percentage))
-
-    def __getattr__(self, name):
-        value = safe_value(self._settings, name)
-        cap = self._capped.get(name)
-        return value if cap is None else cap(value)
-
-
-def _f32_value(value):
-    """The shortest decimal that round-trips a float32-stored value (what the user typed).
-
-    Blender stores float properties as float32: 0.1 reads back as 0.10000000149. Table
-    parameters (and so the bake cache key) use the decimal instead, so the panel's defaults
-    equal ``AtmosphereParams()`` and a value typed in the panel equals the same value given to
-    ``python -m lut_gen bake``.
-    """
-    return float(str(np.float32(value)))
-
-
-def _f32_color(color):
-    return tuple(_f32_value(c) for c in color)
-
-
-def atmosphere_params(settings) -> AtmosphereParams:
-    """Table parameters (``lut_gen.AtmosphereParams``) for an ``OLSSettings``.
-
-    The Atmosphere preset picks the starting point (lut_gen.model.atmosphere.PRESETS); aerosol density
-    and absorption map one to one; ground albedo and ozone column apply to the Clear Sky preset
-    (Sample 2013 has neither). With custom scattering coefficients on, the Rayleigh coefficients
-    are ``max(default Rayleigh) * rayleigh_color`` (so the default colour gives the default
-    coefficients) and the Mie coefficients the preset's times ``mie_color``; off, both are the
-    preset's.
-    """
-    preset_name = "sample-2013" if settings.atmosphere_preset == "SAMPLE_2013" else "clear-sky"
-    rayleigh = DEFAULT_RAYLEIGH_SCATTERING
-    mie = preset(preset_name).mie_scattering
-    if settings.use_custom_scattering_coeffs:
-        color = _f32_color(settings.rayleigh_color)
-        if color != _f32_color(DEFAULT_RAYLEIGH_COLOR):
-            rayleigh = tuple(RAYLEIGH_SCATTERING_SCALE * c for c in color)
-        color = _f32_color(settings.mie_color)
-        if color != _f32_color(DEFAULT_MIE_COLOR):
-            mie = tuple(m * c for m, c in zip(mie, color))
-    if preset_name == "sample-2013":
-        return preset("sample-2013", rayleigh_scattering=rayleigh, mie_scattering=mie,
-                      aerosol_density=_f32_value(settings.aerosol_density),
-                      aerosol_absorption=_f32_value(settings.aerosol_absorption))
-    return preset(
-        "clear-sky",
-        rayleigh_scattering=rayleigh,
-        mie_scattering=mie,
-        aerosol_density=_f32_value(settings.aerosol_density),
-        aerosol_absorption=_f32_value(settings.aerosol_absorption),
-        ground_albedo=_f32_value(settings.ground_albedo),
-        ozone=_f32_value(settings.ozone_column) > 0.0,
-        ozone_column=_f32_value(settings.ozone_column),
     )
 
 

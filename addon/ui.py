@@ -3,8 +3,8 @@ import textwrap
 
 import bpy
 
-from .props import LATER_ISSUE, PROPERTIES_BY_SET
-from .scene import wiring
+from .scene.tables import wired_bake
+from .settings import PROPERTIES_BY_SET, WITHOUT_EFFECT
 
 # (operator idname, button text, icon); written in addon/ops.py.
 OPERATORS = (
@@ -36,14 +36,14 @@ def operator_available(idname):
 
 
 def _runs(names):
-    """Split ``names`` into consecutive runs of (in LATER_ISSUE, [names])."""
+    """Split ``names`` into consecutive runs of (in WITHOUT_EFFECT, [names])."""
     runs = []
     for name in names:
-        later = name in LATER_ISSUE
-        if runs and runs[-1][0] == later:
+        inert = name in WITHOUT_EFFECT
+        if runs and runs[-1][0] == inert:
             runs[-1][1].append(name)
         else:
-            runs.append((later, [name]))
+            runs.append((inert, [name]))
     return runs
 
 
@@ -51,15 +51,15 @@ def draw_settings(layout, settings):
     """Draw the control-set drop-down and the controls of the selected set into ``layout``."""
     layout.prop(settings, "control_set", text="")
     names = PROPERTIES_BY_SET[settings.control_set]
-    if any(name in LATER_ISSUE for name in names):
+    if any(name in WITHOUT_EFFECT for name in names):
         layout.label(text="Greyed controls have no effect yet (their tooltips say why)", icon='INFO')
     col = layout.column()
     col.use_property_split = True
     col.use_property_decorate = False
-    for later, run in _runs(names):
+    for inert, run in _runs(names):
         sub = col.column()
         # Greyed but editable: values are kept with the scene for when the passes arrive.
-        sub.active = not later
+        sub.active = not inert
         for name in run:
             if name in ENABLED_BY:
                 row = sub.row()
@@ -83,7 +83,7 @@ def draw_operators(layout):
 def draw_table_problem(layout, scene):
     """A wired scene whose tables fail verification says so at the top, with the file and the
     fix: F12 cannot be stopped from the add-on, so the panel is where the user sees it."""
-    problem = wiring.table_problem(scene)
+    problem = wired_bake.table_problem(scene)
     if problem is None:
         return
     box = layout.box()

@@ -1,4 +1,4 @@
-"""The fuzz of issue 9 (tests/test_hostile_controls.py): random combinations of every control
+"""The fuzz of issue 9 (tests/addon/test_hostile_controls.py): random combinations of every control
 and sun on a 64 x 36 render of the wired sample, this checkout against a baseline commit,
 side by side in one run. Each variant runs in its own process on the same combinations (the
 test's generator and seed); the wired scene's set-up is not timed.
@@ -28,7 +28,7 @@ def measure(code_root: Path, combinations: int) -> dict:
     from conftest import import_extension
     from render_util import render_rgb
     # The combinations of this checkout's test, for either variant.
-    spec = importlib.util.spec_from_file_location("fuzz_combinations", ROOT / "tests" / "test_hostile_controls.py")
+    spec = importlib.util.spec_from_file_location("fuzz_combinations", ROOT / "tests" / "control_fuzz.py")
     fuzz = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(fuzz)
     FUZZ_SEED, fuzzed_properties, random_combination = fuzz.FUZZ_SEED, fuzz.fuzzed_properties, fuzz.random_combination

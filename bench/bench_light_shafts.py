@@ -34,7 +34,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "scripts"))
 
-SHAFTS_NODE = "OLS Light Shafts"        # compositor.SHAFTS_NODE etc. (read from the module when there)
+SHAFTS_NODE = "OLS Light Shafts"        # addon.scene.names.SHAFTS_NODE (a bench may run an older checkout)
 GROUP_NODES = ("OLS Aerial Perspective", "OLS Light Shafts", "OLS Tone Mapping")
 
 
@@ -72,15 +72,21 @@ def main():
     package = launcher.import_extension()
     import bpy
 
-    def module(name):
-        try:
-            return importlib.import_module(f"{package.__name__}.addon.{name}")
-        except ImportError:
-            return None
+    def module(*names):
+        """The first of ``names`` (this layout's path, then older ones) that imports."""
+        for name in names:
+            try:
+                return importlib.import_module(f"{package.__name__}.addon.{name}")
+            except ImportError:
+                pass
+        return None
 
-    batch, compositor, wiring = module("batch"), module("scene.compositor"), module("scene.wiring")
-    shadow_maps, frame_update = module("scene.shadow_maps"), module("scene.frame_update")
-    shafts_name = getattr(compositor, "SHAFTS_NODE", SHAFTS_NODE)
+    batch = module("batch")
+    compositor = module("scene.setup.compositor", "scene.compositor")
+    shadow_maps = module("scene.frame.shadow_maps", "scene.shadow_maps")
+    wiring = module("scene.setup.wiring", "scene.wiring")
+    frame_update = module("scene.frame.frame_update", "scene.frame_update")
+    frame_state = module("scene.frame.frame_state")
     errors = HandlerErrors()
 
     options = batch.parse_args(["--sample", "--output", "unused.png", "--resolution", args.resolution,
@@ -101,7 +107,7 @@ def main():
         settings.smooth_shadows = smooth
         wiring.match_light_shaft_layout(scene)      # rebuild now, not inside the timed render
         compositor.sync_settings(scene)             # (un)mutes the shaft node
-        node = tree.nodes.get(shafts_name)
+        node = tree.nodes.get(SHAFTS_NODE)
         if shafts and (node is None or node.mute):
             raise RuntimeError("the light-shaft node is missing or muted after configuring")
 
@@ -119,7 +125,7 @@ def main():
             bpy.ops.render.render(write_still=False)
             best = min(best, time.perf_counter() - start)
             errors.check(label)
-            node = tree.nodes.get(shafts_name)
+            node = tree.nodes.get(SHAFTS_NODE)
             if check_shafts and (node is None or node.mute):
                 raise RuntimeError(f"{label}: the add-on switched the light shafts off during the render")
         print(f"    {label}: {best:.2f} s", flush=True)
@@ -154,7 +160,8 @@ def main():
     shadow_seconds = render_seconds = 1e9
     for _ in range(3):
         start = time.perf_counter()
-        cascades = shadow_maps.render(scene, depsgraph)
+        state = frame_state.read(scene, depsgraph) if frame_state else scene    # older layouts took the scene
+        cascades = shadow_maps.render(state, depsgraph)
         middle = time.perf_counter()
         shadow_maps.write_images(cascades)
         end = time.perf_counter()

@@ -61,7 +61,7 @@ def main():
     import bpy
     import numpy as np
     batch = importlib.import_module(package.__name__ + ".addon.batch")
-    wiring = importlib.import_module(package.__name__ + ".addon.scene.wiring")
+    wiring = importlib.import_module(package.__name__ + ".addon.scene.setup.wiring")
     sun_mod = importlib.import_module(package.__name__ + ".addon.scene.sun")
     lut_gen = package.lut_gen
 
@@ -104,7 +104,7 @@ def main():
         if image.name.startswith("OLS "):
             bpy.data.images.remove(image)
     start = time.perf_counter()
-    images = importlib.import_module(package.__name__ + ".addon.scene.luts").load_images(directory)
+    images = importlib.import_module(package.__name__ + ".addon.scene.tables.luts").load_images(directory)
     for image in images.values():
         image.pixels[0]                      # force the pixels to load
     load = time.perf_counter() - start

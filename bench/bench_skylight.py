@@ -1,4 +1,4 @@
-"""What a sun move costs the world-lighting panoramas (addon/scene/skylight.py): the sky and
+"""What a sun move costs the world-lighting panoramas (addon/scene/frame/skylight.py): the sky and
 ground panoramas for the default tables computed per pixel with Luts.sky_radiance and
 Luts.ground_radiance, tables re-packed on every call (the baseline: what skylight did before),
 the same with the packed tables kept (Luts.keep_packed), and lut_gen.passes.panorama, side by side in
@@ -20,7 +20,7 @@ sys.path.insert(0, str(ROOT))
 import lut_gen  # noqa: E402
 from lut_gen.passes import panorama  # noqa: E402
 
-SIZE = (512, 256)               # addon/scene/skylight.py's
+SIZE = (512, 256)               # addon/scene/frame/skylight.py's
 
 
 def per_pixel(luts, sun, height):

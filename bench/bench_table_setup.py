@@ -23,7 +23,7 @@ def main():
     from conftest import import_extension
     pkg = import_extension()
     lut_gen = import_module(pkg.__name__ + ".lut_gen")
-    luts_module = import_module(pkg.__name__ + ".addon.scene.luts")
+    luts_module = import_module(pkg.__name__ + ".addon.scene.tables.luts")
     manifest = lut_gen.store.manifest
     directory, _ = lut_gen.store.cache.bake_into(lut_gen.AtmosphereParams())
 

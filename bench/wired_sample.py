@@ -8,14 +8,14 @@ def wired_sample(pkg, output, width=64, height=36):
     """(scene, terrain objects) of the wired sample rendering to ``output``."""
     import bpy
     batch = import_module(pkg.__name__ + ".addon.batch")
-    ops = import_module(pkg.__name__ + ".addon.ops")
-    wiring = import_module(pkg.__name__ + ".addon.scene.wiring")
+    baking = import_module(pkg.__name__ + ".addon.baking")
+    wiring = import_module(pkg.__name__ + ".addon.scene.setup.wiring")
     bpy.ops.wm.read_factory_settings(use_empty=True)
     args = batch.parse_args(["--sample", "--tables", "draft", "--resolution", f"{width}x{height}",
                              "--samples", "1", "--output", str(output)])
     scene = batch.prepare(args)
     batch.apply_options(scene, args)
-    directory = ops.bake_if_needed(pkg.lut_gen.AtmosphereParams(), "draft")
+    directory = baking.bake_if_needed(pkg.lut_gen.AtmosphereParams(), "draft")
     terrain = [o for o in scene.objects if o.select_get()]
     wiring.wire_scene(scene, directory, terrain, resolution="draft")
     scene.cycles.samples = 1

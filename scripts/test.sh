@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Run the test suite in .venv (created/updated by bootstrap.sh). Extra args go to pytest.
 #   scripts/test.sh                       # whole suite (testpaths = ["tests"] in pyproject.toml)
-#   scripts/test.sh tests/test_manifest.py -k build
+#   scripts/test.sh tests/system/test_manifest.py -k build
+#   scripts/test.sh tests/numpy_only            # one layer
 #   scripts/test.sh -m "not slow"
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

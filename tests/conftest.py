@@ -1,17 +1,22 @@
-"""Test configuration: make the repo root importable (``import lut_gen``).
+"""Test configuration for every layer (tests/numpy_only, addon, twins, system).
 
-Note: tests/ must stay a plain directory (no ``__init__.py``). The repo root is itself a
-package (the extension's ``__init__.py``), so a ``tests/__init__.py`` would make pytest's
-rootdir-walking import put the *parent* of the repo on sys.path.
+The repo root goes on sys.path (``import lut_gen``) and so does tests/ (the shared helpers:
+extension.py, render_util.py, rays.py). tests/ and its layer folders stay plain directories (no
+``__init__.py``): the repo root is itself a package (the extension's ``__init__.py``), and a
+``tests/__init__.py`` would make pytest's rootdir-walking import put the *parent* of the repo on
+sys.path.
 """
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
+for path in (ROOT, ROOT / "tests"):
+    if str(path) not in sys.path:
+        sys.path.insert(0, str(path))
 
 import pytest  # noqa: E402
+
+from extension import EXTENSION_PACKAGE, import_extension  # noqa: E402,F401 (benches import them from here)
 
 
 @pytest.fixture(scope="session")
@@ -25,30 +30,6 @@ def default_luts():
 def draft_luts():
     import lut_gen
     return lut_gen.bake(resolution="draft")
-
-
-# The extension's package name (blender_manifest.toml id). The repo root is imported under it so
-# the extension's relative imports (``from ..lut_gen import ...``) resolve as in Blender, whatever
-# the checkout directory is called.
-EXTENSION_PACKAGE = "outdoor_light_scattering"
-
-
-def import_extension(name=EXTENSION_PACKAGE):
-    """Import the repo root as the package ``name`` (once per process) and return it."""
-    import importlib.util
-
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(
-        name, ROOT / "__init__.py", submodule_search_locations=[str(ROOT)])
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    try:
-        spec.loader.exec_module(module)
-    except BaseException:
-        del sys.modules[name]
-        raise
-    return module
 
 
 @pytest.fixture

@@ -1,17 +1,64 @@
-"""Node-group builders: one module per group, all on top of builder.Graph."""
-from . import epipolar, frame_values, lookup
-from .aerial import GROUP_NAME as AERIAL_GROUP, build_aerial_group
-from .frame_values import GROUP_NAME as FRAME_VALUES_GROUP, build_frame_values_group
+"""Node-group builders: one module per group (or family of groups), all on top of builder.Graph.
+
+``GROUPS`` pairs every node group the add-on builds with its builder, its numpy twin (the same
+maths in lut_gen, which the tests and the per-frame code run) and the test that renders the
+group with Cycles and compares its pixels with the twin. tests/addon/test_node_groups.py fails
+when a group is built that has no entry here, when a twin does not import or when a test is
+missing; a new group lands with all three.
+"""
+from dataclasses import dataclass
+from typing import Callable
+
+from ..scene import names
+from . import epipolar, frame_values, lookup  # noqa: F401 (their helpers are used as nodes.<module>.<name>)
+from .aerial import build_aerial_group
+from .frame_values import build_frame_values_group
 from .inscattering import build_section_group, lookup_group_name, section_group_name
-from .light_shafts import (GROUP_NAME as LIGHT_SHAFTS_GROUP, INTEGRATION_GROUP, MARCH_CHUNK_GROUP, MARCH_REST_GROUP,
-                           READS_SHADOW_MAPS_KEY, SHADOW_TEST_GROUP, ShaftLayout, build_light_shaft_groups)
-from .lookup import GROUP_NAME as LOOKUP_GROUP, build_lookup_group
-from .optical import SEGMENT_GROUP, build_segment_transmittance_group
-from .sky import GROUP_NAME as SKY_GROUP, build_sky_group
-from .terrain import GROUP_NAME as TERRAIN_GROUP, build_terrain_group
-from .tone_mapping import GROUP_NAME as TONE_MAPPING_GROUP, build_tone_mapping_group
+from .light_shafts import (ShaftLayout,  # noqa: F401 (nodes.ShaftLayout)
+                           build_integration_group, build_light_shaft_groups, build_march_chunk_group,
+                           build_shadow_test_group)
+from .lookup import build_lookup_group
+from .optical import build_segment_transmittance_group
+from .sky import build_sky_group
+from .terrain import build_terrain_group
+from .tone_mapping import build_tone_mapping_group
 
 COMPOSITOR_TABLES = ("single", "higher", "multiple")
-GROUP_NAMES = ((LOOKUP_GROUP, SKY_GROUP, TERRAIN_GROUP, TONE_MAPPING_GROUP, AERIAL_GROUP, LIGHT_SHAFTS_GROUP,
-                SHADOW_TEST_GROUP, INTEGRATION_GROUP, MARCH_CHUNK_GROUP, MARCH_REST_GROUP, FRAME_VALUES_GROUP, SEGMENT_GROUP)
-               + tuple(lookup_group_name(t) for t in COMPOSITOR_TABLES) + tuple(section_group_name(t) for t in COMPOSITOR_TABLES))
+
+
+@dataclass(frozen=True)
+class Group:
+    name: str           # the node group's name in bpy.data.node_groups
+    builder: Callable   # the function that (re)builds it
+    twin: str           # its numpy twin: a dotted path from the repository root (module, then attribute)
+    test: str           # the test comparing a render of it with the twin: "tests/<layer>/<file>.py::<function>"
+
+
+_AERIAL_TEST = "tests/twins/test_aerial_pass.py::test_aerial_perspective_pass_matches_twin"
+_SHAFTS_TEST = "tests/twins/test_light_shafts_pass.py::test_every_scattering_mode_matches_the_twin_and_shafts_show"
+_SKY_TEST = "tests/twins/test_sky_group.py::test_sky_render_matches_numpy_twin"
+
+GROUPS = (
+    Group(names.LOOKUP_GROUP, build_lookup_group, "lut_gen.tables.lookup.Luts.sky_radiance", _SKY_TEST),
+    *(Group(lookup_group_name(table), build_lookup_group, "lut_gen.tables.lookup.Luts.sky_radiance",
+            _AERIAL_TEST if table == "multiple" else _SHAFTS_TEST) for table in COMPOSITOR_TABLES),
+    *(Group(section_group_name(table), build_section_group, "lut_gen.passes.aerial.section_inscattering",
+            _AERIAL_TEST if table == "multiple" else _SHAFTS_TEST) for table in COMPOSITOR_TABLES),
+    Group(names.SEGMENT_GROUP, build_segment_transmittance_group, "lut_gen.passes.aerial.segment_transmittance",
+          "tests/twins/test_aerial_pass.py::test_segment_transmittance_just_below_the_horizon_matches_twin"),
+    Group(names.SKY_GROUP, build_sky_group, "lut_gen.tables.lookup.Luts.sky_radiance", _SKY_TEST),
+    Group(names.TERRAIN_GROUP, build_terrain_group, "lut_gen.passes.terrain.terrain_radiance",
+          "tests/twins/test_terrain_group.py::test_terrain_group_matches_numpy_twin"),
+    Group(names.AERIAL_GROUP, build_aerial_group, "lut_gen.passes.aerial.aerial_perspective", _AERIAL_TEST),
+    Group(names.FRAME_VALUES_GROUP, build_frame_values_group, "lut_gen.passes.frame_values.unpack",
+          "tests/twins/test_frame_values_group.py::test_frame_values_group_outputs_what_unpack_reads"),
+    Group(names.LIGHT_SHAFTS_GROUP, build_light_shaft_groups, "lut_gen.passes.scattering_pass.light_shafts", _SHAFTS_TEST),
+    Group(names.SHADOW_TEST_GROUP, build_shadow_test_group, "lut_gen.passes.shadow_map.visibility", _SHAFTS_TEST),
+    Group(names.INTEGRATION_GROUP, build_integration_group, "lut_gen.passes.aerial.integration_terms", _SHAFTS_TEST),
+    Group(names.MARCH_CHUNK_GROUP, build_march_chunk_group, "lut_gen.passes.aerial.light_shafts",
+          "tests/twins/test_light_shafts_pass.py::test_every_scattering_mode_matches_the_twin_and_shafts_show"),
+    Group(names.MARCH_REST_GROUP, build_march_chunk_group, "lut_gen.passes.aerial.light_shafts", _SHAFTS_TEST),
+    Group(names.TONE_MAPPING_GROUP, build_tone_mapping_group, "lut_gen.passes.tone_mapping.tone_map",
+          "tests/twins/test_tone_mapping.py::test_every_operator_matches_the_sample_formula"),
+)
+GROUP_NAMES = tuple(group.name for group in GROUPS)

@@ -12,8 +12,8 @@ from __future__ import annotations
 from .builder import group_io, new_group
 from .inscattering import section_node
 from .optical import segment_transmittance_node
+from ..scene import names
 
-GROUP_NAME = "OLS Aerial Perspective"
 # The render passes both scattering groups read (light_shafts.py reuses them).
 PASS_INPUTS = [
     ("Image", "NodeSocketColor", (0.0, 0.0, 0.0, 1.0)),
@@ -32,7 +32,7 @@ INPUTS = PASS_INPUTS + [
 
 
 def build_aerial_group(optical_depth_image, params):
-    tree = new_group(GROUP_NAME, "CompositorNodeTree")
+    tree = new_group(names.AERIAL_GROUP, "CompositorNodeTree")
     g, gin, gout = group_io(tree, INPUTS, [("Image", "NodeSocketColor", None),
                                            ("Transmittance", "NodeSocketColor", None),
                                            ("Inscattering", "NodeSocketColor", None)])

@@ -18,12 +18,8 @@ import numpy as np
 
 from ...lut_gen.passes import epipolar, epipolar_air
 from .lookup import mie_phase, rayleigh_phase
+from ..scene import names
 
-LIT_IMAGE = "OLS Epipolar Lit"
-INTEGRAL_IMAGE = "OLS Epipolar Integral"
-SAMPLING_IMAGE = "OLS Epipolar Sampling"    # Show Sampling's dots at the render's size (1 x 1 when off)
-AIR_IMAGES = {"single": "OLS Epipolar Air Rayleigh", "single_mie": "OLS Epipolar Air Mie",
-              "higher": "OLS Epipolar Air Higher"}
 INPUTS = [
     ("Epipolar Axis 1", "NodeSocketVector", (1.0, 0.0, 0.0)),
     ("Epipolar Axis 2", "NodeSocketVector", (0.0, 1.0, 0.0)),
@@ -72,7 +68,7 @@ def pack(tables: epipolar.EpipolarTables):
 def pack_air(tables: epipolar_air.AirTables) -> dict:
     """{image name: RGBA pixels} of the in-scattering tables."""
     arrays = {"single": tables.rayleigh, "single_mie": tables.mie, "higher": tables.higher}
-    return {AIR_IMAGES[name]: _rows(table) for name, table in arrays.items()}
+    return {names.EPIPOLAR_AIR_IMAGES[name]: _rows(table) for name, table in arrays.items()}
 
 
 def image_size(slices: int, samples: int, steps: int):
@@ -160,7 +156,7 @@ def in_scattering(g, gin, direction, length, sun, geometry, layout, images, mie_
             coordinates_at[name] = air_grid.coordinates(_distance_node(g, distances[name], reach, air_growth,
                                                                        air_grid.K))
         if (table, name) not in fetched:
-            fetched[table, name] = air_grid.fetch(air_images[AIR_IMAGES[table]], None, coordinates_at[name])
+            fetched[table, name] = air_grid.fetch(air_images[names.EPIPOLAR_AIR_IMAGES[table]], None, coordinates_at[name])
         return fetched[table, name]
 
     def weights(uses, end=geometry):

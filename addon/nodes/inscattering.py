@@ -1,22 +1,24 @@
 """Eq. (8) of seed 000 in a compositor tree: light scattered toward the camera from a ray
 section start -> end, T(C->start) L(start) - T(C->end) L(end), both look-ups on the side of the
-horizon seam the first one chose (Listing 2). Twin: lut_gen.passes.aerial._eq8."""
+horizon seam the first one chose (Listing 2). Twin: lut_gen.passes.aerial.section_inscattering."""
 from __future__ import annotations
 
+import bpy
+
 from ...lut_gen.passes.aerial import HORIZON_BLEND, HORIZON_BLEND_HEIGHT
-from .lookup import COMPOSITOR_GROUP_NAME
+from .builder import group_io, new_group
 from .optical import horizon_cos, point_frame
+from ..scene import names
 
 
 def lookup_group_name(table: str) -> str:
     """Compositor look-up group of a scattering table ("multiple" keeps the original name)."""
-    return COMPOSITOR_GROUP_NAME if table == "multiple" else f"{COMPOSITOR_GROUP_NAME[:-1]}, {table})"
+    return names.COMPOSITOR_LOOKUP_GROUP if table == "multiple" else f"{names.COMPOSITOR_LOOKUP_GROUP[:-1]}, {table})"
 
 
 def look_up(g, table, point_frame_, direction, sun, forced=None):
     """(radiance per unit sun, above-horizon flag) of ``table`` at a point looking along
     ``direction``; ``forced`` takes the flag of an earlier look-up."""
-    import bpy
     height, up = point_frame_
     node = g.node("CompositorNodeGroup")
     node.node_tree = bpy.data.node_groups[lookup_group_name(table)]
@@ -31,12 +33,11 @@ def look_up(g, table, point_frame_, direction, sun, forced=None):
 
 
 def section_group_name(table: str) -> str:
-    return f"OLS Section Scattering ({table})"
+    return names.SECTION_GROUP.format(table=table)
 
 
 def build_section_group(table, params):
     """"OLS Section Scattering (<table>)": eq. (8) over a ray section as a shared group."""
-    from .builder import group_io, new_group
     tree = new_group(section_group_name(table), "CompositorNodeTree")
     inputs = ([(name, "NodeSocketVector", (0.0, 0.0, 0.0)) for name in ("Start", "End", "Direction", "Sun Direction")]
               + [(name, "NodeSocketVector", (1.0, 1.0, 1.0)) for name in ("Start Transmittance", "End Transmittance")])
@@ -49,7 +50,6 @@ def build_section_group(table, params):
 
 def section_node(g, table, start, end, direction, sun, start_transmittance, end_transmittance):
     """Eq. (8) start -> end through an "OLS Section Scattering (<table>)" node."""
-    import bpy
     return g.group(bpy.data.node_groups[section_group_name(table)], start=start, end=end, direction=direction,
                    sun_direction=sun, start_transmittance=start_transmittance,
                    end_transmittance=end_transmittance)["Radiance"]
@@ -59,7 +59,7 @@ def section_inscattering(g, table, start, end, direction, sun, start_transmittan
     """max(T_start L(start) - T_end L(end), 0) for world points ``start`` and ``end``; within
     HORIZON_BLEND of the start's horizon (narrowed for long sections), the blend of eq. (8) along
     the rays just below and just above the horizon (Bruneton's fix for the step the seam draws;
-    twin: lut_gen.passes.aerial._eq8)."""
+    twin: lut_gen.passes.aerial.section_inscattering)."""
     start_frame = point_frame(g, start, params)
     height, up = start_frame
 

@@ -27,13 +27,8 @@ from .inscattering import section_node
 from .lookup import mie_phase, rayleigh_phase
 from .optical import (ozone_density, point_frame, segment_transmittance_node, transmittance_from_net_density,
                       transmittance_to_top)
+from ..scene import names
 
-GROUP_NAME = "OLS Light Shafts"
-SHADOW_TEST_GROUP = "OLS Shadow Test"
-INTEGRATION_GROUP = "OLS Integration Step"
-READS_SHADOW_MAPS_KEY = "ols_reads_shadow_maps"     # on the main group: ShaftLayout.reads_shadow_maps
-MARCH_CHUNK_GROUP = "OLS March Chunk"
-MARCH_REST_GROUP = "OLS March Rest"
 NEVER = 1e20                 # "no lit sample" in the first-lit minimum
 
 
@@ -95,7 +90,7 @@ SHARED_INPUTS = [
 def build_shadow_test_group(layout: ShaftLayout, atlas_image, parameter_image):
     """"OLS Shadow Test": the sun visibility of a world point (1 lit, 0 shadowed, PCF fractions)
     and its cascade. Twin: lut_gen.passes.shadow_map.visibility and select_cascade."""
-    tree = new_group(SHADOW_TEST_GROUP, "CompositorNodeTree")
+    tree = new_group(names.SHADOW_TEST_GROUP, "CompositorNodeTree")
     inputs = [("Point", "NodeSocketVector", (0.0, 0.0, 0.0))] + SHARED_INPUTS + cascade_inputs(layout.cascades)
     g, gin, gout = group_io(tree, inputs, [("Lit", "NodeSocketFloat", None), ("Cascade", "NodeSocketFloat", None)])
     n = layout.cascades
@@ -164,7 +159,7 @@ def build_integration_group(optical_image, params):
     T_sun(X) x lit x step (the sample's "Singl sctr: integration"), with the extinction from the
     camera accumulated step by step (net densities in and out, midpoint rule). Twin: the
     INTEGRATION branch of lut_gen.passes.aerial.light_shafts."""
-    tree = new_group(INTEGRATION_GROUP, "CompositorNodeTree")
+    tree = new_group(names.INTEGRATION_GROUP, "CompositorNodeTree")
     inputs = [("Point", "NodeSocketVector", (0.0, 0.0, 0.0)), ("Direction", "NodeSocketVector", (0.0, 1.0, 0.0)),
               ("Sun Direction", "NodeSocketVector", (0.0, 0.0, 1.0)), ("Lit", "NodeSocketFloat", 1.0),
               ("Step", "NodeSocketFloat", 1.0), ("Net Density Before", "NodeSocketVector", (0.0, 0.0, 0.0))]
@@ -208,9 +203,9 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     image}) instead of marching."""
     shadow_test_tree = (build_shadow_test_group(layout, atlas_image, parameter_image)
                         if layout.reads_shadow_maps else None)
-    tree = new_group(GROUP_NAME, "CompositorNodeTree")
-    tree["ols_layout"] = layout.as_key()
-    tree[READS_SHADOW_MAPS_KEY] = layout.reads_shadow_maps
+    tree = new_group(names.LIGHT_SHAFTS_GROUP, "CompositorNodeTree")
+    tree[names.LAYOUT_KEY] = layout.as_key()
+    tree[names.READS_SHADOW_MAPS_KEY] = layout.reads_shadow_maps
     inputs = MAIN_INPUTS + SHARED_INPUTS + cascade_inputs(layout.cascades) + (epipolar.INPUTS if layout.epipolar else [])
     g, gin, gout = group_io(tree, inputs, [("Image", "NodeSocketColor", None)])
     camera, forward = gin.outputs["Camera Position"], gin.outputs["Camera Forward"]
@@ -324,7 +319,7 @@ def march_chunks(steps: int):
     """(group name, step count) of the chunk groups a march of ``steps`` steps is made of, in
     order: full chunks, then the remainder's own group."""
     full, rest = divmod(steps, CHUNK_STEPS)
-    return [(MARCH_CHUNK_GROUP, CHUNK_STEPS)] * full + ([(MARCH_REST_GROUP, rest)] if rest else [])
+    return [(names.MARCH_CHUNK_GROUP, CHUNK_STEPS)] * full + ([(names.MARCH_REST_GROUP, rest)] if rest else [])
 
 
 def build_march_chunk_group(name: str, count: int, layout: ShaftLayout, shadow_test_tree, integration):

@@ -17,8 +17,8 @@ from ...lut_gen.tables import parameterization as par
 from ...lut_gen.model.atmosphere import RAYLEIGH_PHASE_NORM
 from .builder import group_io, new_group
 from .optical import distance_to_ground
+from ..scene import names
 
-GROUP_NAME = "OLS Scattering Lookup"
 TAN_PHI = math.tan(1.26 * 1.1)       # eq. (6), Bruneton's form
 
 
@@ -110,11 +110,10 @@ def lower_node(g, x, n):
     return low, g.sub(x, low)
 
 
-COMPOSITOR_GROUP_NAME = "OLS Scattering Lookup (Compositor)"
 
 
 def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=False, name=None, *, mie_image):
-    """(Re)build the group ``name`` (default: GROUP_NAME or COMPOSITOR_GROUP_NAME) for the
+    """(Re)build the group ``name`` (default: names.LOOKUP_GROUP or names.COMPOSITOR_LOOKUP_GROUP) for the
     scattering atlas ``image`` with table sizes ``dims``; ``mie_image``: the single Mie atlas
     for the tables that include single scattering, None only for "higher" (required: leaving it
     out would silently drop the aureole).
@@ -134,9 +133,9 @@ def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=Fal
     if compositor:      # eq. (8) needs its second look-up on the first one's side of the seam
         inputs += [("Force Horizon", "NodeSocketFloat", 0.0), ("Above Horizon", "NodeSocketFloat", 1.0)]
         outputs += [("Above Horizon", "NodeSocketFloat", None)]
-    tree = new_group(name or (COMPOSITOR_GROUP_NAME if compositor else GROUP_NAME),
+    tree = new_group(name or (names.COMPOSITOR_LOOKUP_GROUP if compositor else names.LOOKUP_GROUP),
                      "CompositorNodeTree" if compositor else "ShaderNodeTree")
-    tree["ols_filtering"] = filtering
+    tree[names.FILTERING_KEY] = filtering
     g, gin, gout = group_io(tree, inputs, outputs)
     x_h, h = height_coordinate(g, gin.outputs["Height"], dims, params)
     forced = (gin.outputs["Force Horizon"], gin.outputs["Above Horizon"]) if compositor else None

@@ -5,9 +5,13 @@ from __future__ import annotations
 
 import math
 
+import bpy
+
 from ...lut_gen.passes import aerial as aerial_twin
 from ...lut_gen.model import geometry
 from ...lut_gen.model.profiles import OZONE_HALF_WIDTH_M, OZONE_PEAK_HEIGHT_M
+from ..scene import names
+from .builder import group_io, new_group
 
 
 def point_frame(g, point, params):
@@ -109,14 +113,12 @@ def below_horizon(g, height, cos_view, params):
     return g.math("LESS_THAN", cos_view, horizon_cos(g, height, params))
 
 
-SEGMENT_GROUP = "OLS Segment Transmittance"
 
 
 def build_segment_transmittance_group(image, params):
     """"OLS Segment Transmittance" (compositor): the transmittance between two world points,
     shared by the scattering groups (a big tree of its own; node trees grow slow to edit)."""
-    from .builder import group_io, new_group
-    tree = new_group(SEGMENT_GROUP, "CompositorNodeTree")
+    tree = new_group(names.SEGMENT_GROUP, "CompositorNodeTree")
     inputs = [(name, "NodeSocketVector", (0.0, 0.0, 0.0)) for name in ("Start", "End", "Direction")]
     g, gin, gout = group_io(tree, inputs, [("Transmittance", "NodeSocketVector", None)])
     g.links.new(segment_transmittance(g, image, gin.outputs["Start"], gin.outputs["End"], gin.outputs["Direction"], params),
@@ -126,8 +128,7 @@ def build_segment_transmittance_group(image, params):
 
 def segment_transmittance_node(g, start, end, direction):
     """The transmittance start -> end through an "OLS Segment Transmittance" node."""
-    import bpy
-    return g.group(bpy.data.node_groups[SEGMENT_GROUP], start=start, end=end, direction=direction)["Transmittance"]
+    return g.group(bpy.data.node_groups[names.SEGMENT_GROUP], start=start, end=end, direction=direction)["Transmittance"]
 
 
 def segment_transmittance(g, image, start, end, direction, params):

@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import math
 
+import bpy
+
 from ...lut_gen.model import sun_disc
 from .builder import group_io, new_group
-from .lookup import GROUP_NAME as LOOKUP_GROUP
 from .optical import ground_radiance, transmittance_to_top
+from ..scene import names
 
-GROUP_NAME = "OLS Sky"
 INPUTS = [
     ("Sun Direction", "NodeSocketVector", (0.0, 0.0, 1.0)),   # unit vector toward the sun
     ("Camera Height", "NodeSocketFloat", 2.0),                # metres above the ground
@@ -45,7 +46,7 @@ def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, 
     Camera rays evaluate the exact 4D look-up and ground term; every other ray (lighting,
     reflections, EEVEE's world probe) reads the panoramas, two texture fetches: Cycles skips the
     unused branch of a Mix Shader."""
-    tree = new_group(GROUP_NAME)
+    tree = new_group(names.SKY_GROUP)
     g, gin, gout = group_io(tree, INPUTS, [("Color", "NodeSocketColor", None), ("Background", "NodeSocketShader", None)])
     view = g.vmath("NORMALIZE", g.node("ShaderNodeTexCoord").outputs["Generated"])
     sun = g.vmath("NORMALIZE", gin.outputs["Sun Direction"])
@@ -57,7 +58,7 @@ def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, 
     sky_scale = g.mul(strength, gin.outputs["Scattering Scale"])
 
     lookup = g.node("ShaderNodeGroup")
-    lookup.node_tree = tree_or_fail(LOOKUP_GROUP)
+    lookup.node_tree = tree_or_fail(names.LOOKUP_GROUP)
     for name, value in (("Height", height), ("Cos View Zenith", cos_view), ("Cos Sun Zenith", cos_sun),
                         ("Cos Sun View", cos_sun_view)):
         g.feed(lookup.inputs[name], value)
@@ -97,7 +98,6 @@ def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, 
 
 
 def tree_or_fail(name):
-    import bpy
     tree = bpy.data.node_groups.get(name)
     if tree is None:
         raise RuntimeError(f"node group {name!r} is missing; build the look-up group first")

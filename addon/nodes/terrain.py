@@ -12,8 +12,8 @@ import math
 
 from .builder import group_io, new_group
 from .optical import ambient_skylight, point_frame, transmittance_to_top
+from ..scene import names
 
-GROUP_NAME = "OLS Terrain"
 INPUTS = [
     ("Albedo", "NodeSocketColor", (0.2, 0.2, 0.2, 1.0)),
     ("Normal", "NodeSocketVector", (0.0, 0.0, 0.0)),          # zero: use the shading normal
@@ -26,7 +26,7 @@ MIN_ORIGIN_TRANSMITTANCE = 1e-6
 
 
 def build_terrain_group(optical_depth_image, ambient_image, params):
-    tree = new_group(GROUP_NAME)
+    tree = new_group(names.TERRAIN_GROUP)
     g, gin, gout = group_io(tree, INPUTS, [("Shader", "NodeSocketShader", None)])
     geometry = g.node("ShaderNodeNewGeometry")
     # Normal input if connected/non-zero, else the shading normal.

@@ -6,11 +6,11 @@ chosen one is kept. Auto exposure takes the log-average luminance of the frame f
 node's mean over log luminance; otherwise "Average Luminance" is used (the sample's 0.1).
 
 "Linear Output" 1 passes the image through unchanged: renders saved as OpenEXR hold scene-linear
-radiance (addon/scene/compositor.py sets it from the output format).
+radiance (addon/scene/setup/compositor.py sets it from the output format).
 
 Light adaptation: the operators use Previous + (measured - Previous) * Adaptation Weight (weight 1,
 the default, is no adaptation). A compositor has no memory across frames, so Python carries it
-(addon/scene/adaptation.py): the output "Adapted Luminance" is a 1 x 1 image of the luminance this
+(addon/scene/frame/adaptation.py): the output "Adapted Luminance" is a 1 x 1 image of the luminance this
 frame used, which a File Output node writes for the render handlers to read back.
 """
 from __future__ import annotations
@@ -19,8 +19,8 @@ import math
 
 from ...lut_gen.passes import tone_mapping as twin
 from .builder import group_io, new_group
+from ..scene import names
 
-GROUP_NAME = "OLS Tone Mapping"
 INPUTS = [
     ("Image", "NodeSocketColor", (0.0, 0.0, 0.0, 1.0)),
     ("Operator", "NodeSocketFloat", float(twin.OPERATORS.index("UNCHARTED2"))),
@@ -58,7 +58,7 @@ def _one_pixel_image(g, image, value):
 
 
 def build_tone_mapping_group():
-    tree = new_group(GROUP_NAME, "CompositorNodeTree")
+    tree = new_group(names.TONE_MAPPING_GROUP, "CompositorNodeTree")
     g, gin, gout = group_io(tree, INPUTS, OUTPUTS)
     split = g.node("CompositorNodeSeparateColor")
     g.links.new(gin.outputs["Image"], split.inputs["Image"])

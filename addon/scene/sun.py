@@ -11,8 +11,8 @@ import bpy
 import numpy as np
 
 from ...lut_gen.model.atmosphere import AtmosphereParams
+from . import names
 
-SUN_NAME = "OLS Sun"
 EXTRATERRESTRIAL_STRENGTH = 10.0     # the sample's extraterrestrial sun intensity
 SUN_ANGLE = math.radians(0.545)
 COLOUR_TOLERANCE = 1e-4
@@ -35,10 +35,10 @@ DEFAULT_ELEVATION_DEG = 35.0
 
 
 def create_sun(scene, elevation_deg=DEFAULT_ELEVATION_DEG, azimuth_deg=0.0):
-    data = bpy.data.lights.new(SUN_NAME, "SUN")
+    data = bpy.data.lights.new(names.SUN_OBJECT, "SUN")
     data.energy = EXTRATERRESTRIAL_STRENGTH
     data.angle = SUN_ANGLE
-    sun = bpy.data.objects.new(SUN_NAME, data)
+    sun = bpy.data.objects.new(names.SUN_OBJECT, data)
     scene.collection.objects.link(sun)
     set_sun_angles(sun, elevation_deg, azimuth_deg)
     return sun

@@ -111,7 +111,7 @@ def segment_inscattering(luts: Luts, start, end, sun_direction, table: str = "mu
     sun = np.asarray(sun_direction, float) / np.linalg.norm(sun_direction)
     direction = end - start
     direction = direction / np.maximum(np.linalg.norm(direction, axis=-1, keepdims=True), 1e-9)
-    return _eq8(luts, start, end, direction, sun, table, 1.0, segment_transmittance(luts, start, end))
+    return section_inscattering(luts, start, end, direction, sun, table, 1.0, segment_transmittance(luts, start, end))
 
 
 def aerial_perspective(luts: Luts, camera, points, surface_radiance, sun_direction, sun_strength=1.0,
@@ -201,15 +201,15 @@ def apply_modes(luts: Luts, camera, end, sun, lit_length, first_lit, integrated,
 
 def _section(luts, camera, start, end, direction, sun, table):
     """Eq. (8) for the lit section start -> end seen from the camera."""
-    return _eq8(luts, start, end, direction, sun, table, segment_transmittance(luts, camera, start),
-                segment_transmittance(luts, camera, end))
+    return section_inscattering(luts, start, end, direction, sun, table, segment_transmittance(luts, camera, start),
+                                segment_transmittance(luts, camera, end))
 
 
 HORIZON_BLEND = 0.004      # zenith-cosine half width of Bruneton's blend across the horizon seam ...
 HORIZON_BLEND_HEIGHT = 20.0  # ... narrowed so the tilted rays end at most this many metres off
 
 
-def _eq8(luts, start, end, direction, sun, table, start_transmittance, end_transmittance, phase_free=False):
+def section_inscattering(luts, start, end, direction, sun, table, start_transmittance, end_transmittance, phase_free=False):
     """T_start L(start) - T_end L(end), both look-ups on the side of the horizon seam the first
     one chose (Listing 2). Within HORIZON_BLEND of the start's horizon the two sides of the
     seam disagree by the tables' interpolation error (about 15% near the ground), which draws a
@@ -220,12 +220,13 @@ def _eq8(luts, start, end, direction, sun, table, start_transmittance, end_trans
     ``start`` and ``direction`` may have a size-1 axis that ``end`` spans (many distances
     along one ray: the start's look-up is made once); ``phase_free`` as Luts.sky_radiance, and
     then ``table`` may be a tuple of names: a tuple of results, from shared look-ups."""
-    results = _eq8_tables(luts, start, end, direction, sun, table, start_transmittance, end_transmittance, phase_free)
+    results = _section_inscattering_each(luts, start, end, direction, sun, table, start_transmittance,
+                                         end_transmittance, phase_free)
     return results if isinstance(table, tuple) else results[0]
 
 
-def _eq8_tables(luts, start, end, direction, sun, table, start_transmittance, end_transmittance, phase_free):
-    """_eq8 of each table of ``table`` (a name or a tuple of names), as a tuple."""
+def _section_inscattering_each(luts, start, end, direction, sun, table, start_transmittance, end_transmittance, phase_free):
+    """section_inscattering of each table of ``table`` (a name or a tuple of names), as a tuple."""
     several = isinstance(table, tuple)
 
     def look_up(*args, **kwargs):

@@ -97,7 +97,7 @@ def build(luts: Luts, frame: EpipolarFrame, camera_position) -> AirTables:
     transmittance = aerial.segment_transmittance(luts, camera, points)
 
     # The three tables at the same points: one set of look-up coordinates and corners.
-    radiances = aerial._eq8(luts, camera, points, directions, frame.sun, ("single", "single_mie", "higher"), 1.0,
+    radiances = aerial.section_inscattering(luts, camera, points, directions, frame.sun, ("single", "single_mie", "higher"), 1.0,
                             transmittance, phase_free=True)
     radiances = [radiance.astype(np.float32) for radiance in radiances]
     for radiance in radiances:

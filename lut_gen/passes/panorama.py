@@ -1,7 +1,7 @@
 """The sky and the lit ground as equirectangular panoramas for one sun direction and camera
 height: Luts.sky_radiance ("multiple" table) and Luts.ground_radiance on every pixel, the same
 numbers (measured equal to the bit) for a fraction of the work. The add-on recomputes them on
-every sun move (addon/scene/skylight.py): the per-pixel look-ups took 0.44 s a move for the
+every sun move (addon/scene/frame/skylight.py): the per-pixel look-ups took 0.44 s a move for the
 default tables, this 0.065 s (bench/bench_skylight.py).
 
 Pixel (i, j) of a W x H panorama (rows bottom to top) looks at azimuth ((i + 0.5) / W - 0.5) 2 pi

@@ -1,0 +1,121 @@
+"""The epipolar technique's per-frame tables (lut_gen.passes.epipolar) in the images the "OLS Light
+Shafts" group reads, and the choice of technique for the scene's settings."""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from ....lut_gen.passes import epipolar, epipolar_air, render_detail
+from ... import nodes
+from ..tables import luts
+from .. import names
+
+ALL_IMAGES = (names.EPIPOLAR_LIT_IMAGE, names.EPIPOLAR_INTEGRAL_IMAGE, names.EPIPOLAR_SAMPLING_IMAGE, *names.EPIPOLAR_AIR_IMAGES.values())
+
+
+def render_size(scene):
+    """(width, height) in pixels of the scene's render."""
+    render = scene.render
+    return render_detail.render_size(render.resolution_x, render.resolution_y, render.resolution_percentage)
+
+
+def table_texels(settings) -> int:
+    return (settings.epipolar_slices + 1) * settings.samples_per_slice * settings.num_integration_steps
+
+
+def technique(settings) -> str:
+    """The technique the pass runs: the setting, except that epipolar tables larger than
+    lut_gen.passes.epipolar.MAX_TABLE_TEXELS fall back to brute force (too_large says so)."""
+    if settings.scattering_technique == "EPIPOLAR_SAMPLING" and table_texels(settings) <= epipolar.MAX_TABLE_TEXELS:
+        return "EPIPOLAR_SAMPLING"
+    return "BRUTE_FORCE"
+
+
+def too_large(settings) -> str | None:
+    """Why the epipolar technique falls back to brute force, or None."""
+    if settings.scattering_technique != "EPIPOLAR_SAMPLING" or technique(settings) == "EPIPOLAR_SAMPLING":
+        return None
+    return (f"the epipolar tables of {settings.epipolar_slices} slices x {settings.samples_per_slice} samples x "
+            f"{settings.num_integration_steps} steps exceed {epipolar.MAX_TABLE_TEXELS:,} values; brute force ray "
+            "marching runs instead (lower the slices, samples or steps to use epipolar sampling)")
+
+
+def _sized_images(layout, settings) -> dict:
+    """{name: (width, height)} of the per-frame table images the layout reads, at the sizes
+    of the settings' slices, samples and steps. The group reads those sizes from the frame
+    values, so a change of them resizes images and rebuilds no group."""
+    sizes = {names.EPIPOLAR_LIT_IMAGE: nodes.epipolar.image_size(settings.epipolar_slices, settings.samples_per_slice,
+                                                  settings.num_integration_steps)}
+    if layout.single_mode == "INTEGRATION":
+        sizes[names.EPIPOLAR_INTEGRAL_IMAGE] = sizes[names.EPIPOLAR_LIT_IMAGE]
+    air = epipolar_air.air_dims(settings.epipolar_slices, settings.samples_per_slice)
+    for name in names.EPIPOLAR_AIR_IMAGES.values():
+        sizes[name] = nodes.epipolar.image_size(*air)
+    return sizes
+
+
+def ensure_images(layout, settings):
+    """(lit image, integral image or None, sampling overlay, {name: in-scattering image}) at
+    the sizes ``settings`` need (scene.ols, sanitized); None and {} for brute force. Sized
+    here, before a render: an image made anew while an animation renders would be freed under
+    the render's copy of the compositor (a crash)."""
+    if not layout.epipolar:
+        return None, None, None, {}
+    images = {}
+    for name, (width, height) in _sized_images(layout, settings).items():
+        image = bpy.data.images.get(name)
+        if image is None or tuple(image.size) != (width, height):
+            image = luts.write_data_image(name, np.zeros((height, width, 4), dtype=np.float32))
+        images[name] = image
+    sampling = bpy.data.images.get(names.EPIPOLAR_SAMPLING_IMAGE)      # any size: written at the render's each frame
+    sampling = sampling or luts.write_data_image(names.EPIPOLAR_SAMPLING_IMAGE, np.zeros((1, 1, 4), dtype=np.float32))
+    air = {name: images[name] for name in names.EPIPOLAR_AIR_IMAGES.values()}
+    return images[names.EPIPOLAR_LIT_IMAGE], images.get(names.EPIPOLAR_INTEGRAL_IMAGE), sampling, air
+
+
+def resize_images(layout, settings) -> bool:
+    """Bring existing table images to the sizes ``settings`` need (the group's image nodes
+    follow, see luts.write_data_image); False when one is missing (the group must be rebuilt)."""
+    if not all(bpy.data.images.get(name) is not None for name in (*_sized_images(layout, settings), names.EPIPOLAR_SAMPLING_IMAGE)):
+        return False
+    ensure_images(layout, settings)
+    return True
+
+
+def images_intact(layout, settings) -> bool:
+    if not layout.epipolar:
+        return True
+    return (bpy.data.images.get(names.EPIPOLAR_SAMPLING_IMAGE) is not None
+            and all(bpy.data.images.get(name) is not None and tuple(bpy.data.images[name].size) == size
+                    for name, size in _sized_images(layout, settings).items()))
+
+
+def update(state, cascades, luts_object) -> dict:
+    """Build the frame's tables, write them into the images; the "OLS Frame Values" rows.
+    ``state``: the frame's FrameState; ``luts_object``: the bake as lut_gen.Luts."""
+    settings, camera, sun_direction = state.settings, state.camera, state.sun_direction
+    width, height = state.render_size
+    wanted = epipolar.settings_from(settings)
+    frame = epipolar.frame_for(camera, sun_direction, width, height, float(cascades.far_depths[-1]), wanted)
+    integrate = settings.single_scattering_mode == "INTEGRATION"
+    tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
+                                   settings.best_cascade_search, settings.first_cascade_to_ray_march,
+                                   luts_object, integrate)
+    lit, integral = nodes.epipolar.pack(tables)
+    luts.write_data_image(names.EPIPOLAR_LIT_IMAGE, lit)
+    if integral is not None:
+        luts.write_data_image(names.EPIPOLAR_INTEGRAL_IMAGE, integral)
+    air = epipolar_air.air_frame(frame, camera)
+    air_tables = epipolar_air.build(luts_object, air, camera.position)
+    for name, pixels in nodes.epipolar.pack_air(air_tables).items():
+        luts.write_data_image(name, pixels)
+    overlay = np.zeros((1, 1, 4), dtype=np.float32)
+    if settings.show_sampling:
+        dots = epipolar.sampling_overlay(frame, tables.marched, camera, width, height)
+        overlay = np.zeros((height, width, 4), dtype=np.float32)
+        overlay[..., 0] = dots
+    luts.write_data_image(names.EPIPOLAR_SAMPLING_IMAGE, overlay)
+    values = frame.as_values()
+    values["Epipolar Depth"] = (frame.t_max, frame.growth, air.t_max)
+    values["Epipolar Air Grid"] = (air.slices, air.samples, air.steps)
+    return values

@@ -1,0 +1,142 @@
+"""Per-frame inputs of the scattering passes: the "OLS Frame Values" image (camera, sun,
+cascade rectangles) and the shadow maps, written before each frame is composited.
+
+When (measured in bpy 5.0.1): a still render runs render_pre with the scene's depsgraph up to
+date. An animation render runs render_pre of frame f with the previous frame's state, then
+frame_change_post of f with the render's depsgraph evaluated at f; images written there are
+what the compositor of frame f reads. Both hooks call ``update_frame``; a key of everything the
+result depends on skips the repeated work (the shadow maps take about 0.4 s at 1024 texels and
+6 cascades on 2 cores). Renders without compositing skip it all.
+"""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from ....lut_gen.passes import epipolar, frame_values, scattering_pass
+from ...settings import Sanitized
+from .. import names
+from ..tables import luts, wired_bake
+from . import epipolar_tables, frame_state, shadow_maps
+
+_state = {"key": None, "geometry_changed": True, "rendering": False}
+
+
+def shafts_node(scene):
+    tree = scene.compositing_node_group
+    node = tree.nodes.get(names.SHAFTS_NODE) if tree is not None else None
+    return node if node is not None and node.node_tree is not None else None
+
+
+def write_frame_values(scene, state=None, cascades=None, extra=None):
+    """Camera and sun (and, given, the cascades and ``extra`` rows) into "OLS Frame Values";
+    written only when a value changed (this also runs from depsgraph handlers). ``state``: the
+    frame's FrameState, read from the scene when not given."""
+    image = bpy.data.images.get(names.FRAME_IMAGE)
+    if image is None or scene.camera is None:
+        return
+    if state is None:
+        try:
+            state = frame_state.read(scene)
+        except frame_state.ShadowMapError:
+            return              # no sun or an orthographic camera: the operators report it
+    values = shadow_maps.camera_values(state.camera)
+    values["Sun Direction"], values["Sun Strength"] = state.sun_direction, state.sun_strength
+    if cascades is not None:
+        values.update(shadow_maps.frame_values(cascades))
+    values.update(extra or {})
+    rows = len(frame_values.ROWS)
+    previous = None
+    if tuple(image.size) == (1, rows):
+        previous = np.empty(rows * 4, dtype=np.float32)
+        image.pixels.foreach_get(previous)
+        previous = previous.reshape(rows, 1, 4)
+    pixels = frame_values.pack(values, previous)
+    if previous is None or not np.array_equal(pixels, previous):
+        luts.write_data_image(names.FRAME_IMAGE, pixels)
+
+
+def _frame_key(scene, state: frame_state.FrameState):
+    settings = state.settings
+    return (scene.frame_current, state.key(),
+            settings.shadow_map_resolution, settings.num_cascades, settings.cascade_partitioning_factor,
+            settings.enable_light_shafts, settings.enable_light_scattering,
+            epipolar_tables.technique(settings), epipolar.settings_from(settings), settings.single_scattering_mode,
+            settings.smooth_shadows, settings.best_cascade_search, settings.first_cascade_to_ray_march,
+            settings.show_sampling, scene.get(names.WIRED_KEY))
+
+
+def update_frame(scene, depsgraph) -> bool:
+    """Shadow maps and frame values for the frame about to be composited; False when nothing
+    changed since the last call. Raises ShadowMapError (a message for the user) when the light
+    shafts cannot run. The camera, sun and settings are read once (frame_state) and handed to
+    every stage."""
+    if not scene.render.use_compositing:
+        return False            # nothing reads them
+    node = shafts_node(scene)
+    shafts = node is not None and not node.mute
+    try:
+        state = frame_state.read(scene, depsgraph)
+    except frame_state.ShadowMapError:
+        if shafts:
+            raise
+        return False            # nothing needs the camera or the sun: no frame values to write
+    key = _frame_key(scene, state)
+    if key == _state["key"] and not _state["geometry_changed"]:
+        return False
+    cascades, extra = None, None
+    if shafts:
+        cascades = shadow_maps.render(state, depsgraph)
+        if node.node_tree.get(names.READS_SHADOW_MAPS_KEY, True):
+            shadow_maps.write_images(cascades)
+        if node.node_tree.get(names.LAYOUT_KEY, "").find("EPIPOLAR_SAMPLING") >= 0:
+            extra = epipolar_tables.update(state, cascades, wired_bake.bake_info(scene).numpy_luts())
+    write_frame_values(scene, state, cascades, extra)
+    _state.update(key=key, geometry_changed=False)
+    return True
+
+
+def note_depsgraph_update(depsgraph):
+    """Edits to geometry, or to an object (its shadow visibility, say), invalidate the shadow
+    maps and epipolar tables even when camera and sun stay put."""
+    if depsgraph is None or any(_may_move_shadow_casters(update) for update in depsgraph.updates):
+        _state["geometry_changed"] = True
+
+
+def _may_move_shadow_casters(update) -> bool:
+    """Objects and collections (visibility, exclusion) and geometry data. Not the Scene: its
+    update claims geometry on any change of a scene property, a render setting say, and would
+    make every F12 redo the shadow maps and epipolar tables; not images either, which report
+    geometry when the frame update itself writes them."""
+    if isinstance(update.id, (bpy.types.Object, bpy.types.Collection)):
+        return True
+    return update.is_updated_geometry and not isinstance(update.id, (bpy.types.Scene, bpy.types.Image))
+
+
+def set_rendering(active: bool):
+    _state["rendering"] = active
+
+
+def rendering() -> bool:
+    return _state["rendering"]
+
+
+def forget():
+    _state.update(key=None, geometry_changed=True)
+
+
+def pass_settings(scene, sun_strength: float):
+    """scene.ols as the twin's PassSettings (lut_gen.passes.scattering_pass)."""
+    fields = scattering_pass.PassSettings.__dataclass_fields__
+    settings = Sanitized(scene.ols)
+    values = {name: getattr(settings, name) for name in fields if hasattr(scene.ols, name)}
+    return scattering_pass.PassSettings(**values, sun_strength=sun_strength)
+
+
+def export_pass_inputs(scene, path, depsgraph=None):
+    """Save what the numpy twin needs besides the render passes (camera, sun, shadow cascades,
+    settings) for ``python -m lut_gen pass``."""
+    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    state = frame_state.read(scene, depsgraph)
+    return scattering_pass.save_inputs(path, state.camera, state.sun_direction, shadow_maps.render(state, depsgraph),
+                                       pass_settings(scene, state.sun_strength), state.render_size)

@@ -1,0 +1,136 @@
+"""The sun's cascaded shadow maps for the light-shaft pass: the scene's evaluated meshes
+rendered orthographically along the sun direction by lut_gen.passes.shadow_map, stored in two
+images the "OLS Light Shafts" group reads ("OLS Shadow Map", "OLS Shadow Cascades").
+
+They are rendered again before each frame is composited (see frame_update), since sun, camera
+and geometry may all have moved (frame_state has the camera and sun of the frame); the camera model and the cascade rectangles reach the group
+through the "OLS Frame Values" image.
+"""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from ....lut_gen.passes import scattering_pass, shadow_map
+from ..tables import luts
+from . import frame_state
+from .. import names
+
+MIN_NEAR = 1.0              # m: the first split; the camera's clip start when larger
+
+
+def scene_triangles(depsgraph) -> np.ndarray:
+    """(M, 3, 3) world-space triangles of every evaluated mesh that casts shadows."""
+    chunks = []
+    for instance in depsgraph.object_instances:
+        obj = instance.object
+        if obj.type != "MESH" or not getattr(obj, "visible_shadow", True) or obj.hide_render:
+            continue
+        mesh = obj.to_mesh()
+        try:
+            mesh.calc_loop_triangles()
+            count = len(mesh.loop_triangles)
+            if count == 0:
+                continue
+            coordinates = np.empty(len(mesh.vertices) * 3, dtype=np.float64)
+            mesh.vertices.foreach_get("co", coordinates)
+            indices = np.empty(count * 3, dtype=np.int64)
+            mesh.loop_triangles.foreach_get("vertices", indices)
+        finally:
+            obj.to_mesh_clear()
+        matrix = np.array(instance.matrix_world)
+        world = coordinates.reshape(-1, 3) @ matrix[:3, :3].T + matrix[:3, 3]
+        chunks.append(world[indices].reshape(-1, 3, 3))
+    return np.concatenate(chunks) if chunks else np.zeros((0, 3, 3))
+
+
+def far_depth(camera: shadow_map.Camera, triangles, clip_end: float, near: float) -> float:
+    """View depth of the farthest geometry (capped by the camera's clip end): beyond it nothing
+    can shadow the air."""
+    if len(triangles) == 0:
+        return max(near * 2.0, 1.0)
+    depth = float(np.max((triangles.reshape(-1, 3) - camera.position) @ camera.forward))
+    return float(np.clip(depth, near * 2.0, max(clip_end, near * 2.0)))
+
+
+def render(state: frame_state.FrameState, depsgraph) -> shadow_map.ShadowCascades:
+    """Render the cascades for the frame's camera, sun and settings (meshes as evaluated in
+    ``depsgraph``)."""
+    settings = state.settings
+    resolution = int(settings.shadow_map_resolution)
+    if resolution < 16:
+        raise frame_state.ShadowMapError(f"shadow map resolution {resolution} is too small; pick 512 or more")
+    triangles = scene_triangles(depsgraph)
+    near = max(state.clip_start, MIN_NEAR)
+    far = far_depth(state.camera, triangles, state.camera.clip_end, near)
+    return shadow_map.render_cascades(triangles, state.camera, state.sun_direction, resolution,
+                                      settings.num_cascades, settings.cascade_partitioning_factor, near, far)
+
+
+# The last packed atlas, packed into again next frame (see pack_atlas): as large as the atlas
+# image (32 MiB at the default 6 x 1024, 512 MiB at 6 x 4096), dropped with the images.
+_atlas_buffer = {}
+
+
+def write_images(cascades: shadow_map.ShadowCascades):
+    """The packed atlas and parameter table into the two images (created or resized)."""
+    atlas = shadow_map.pack_atlas(cascades, out=_atlas_buffer.pop("atlas", None))
+    _atlas_buffer["atlas"] = atlas
+    for name, pixels in ((names.SHADOW_MAP_IMAGE, atlas), (names.SHADOW_CASCADES_IMAGE, shadow_map.pack_parameters(cascades))):
+        luts.write_data_image(name, pixels)
+
+
+def release_buffer():
+    """Free the atlas kept for the next frame (the shafts are off, or the scene is unwired)."""
+    _atlas_buffer.clear()
+
+
+def ensure_images(resolution: int, count: int):
+    """The two images at the size ``resolution`` and ``count`` need (contents: all lit until
+    the first render writes them)."""
+    atlas = bpy.data.images.get(names.SHADOW_MAP_IMAGE)
+    params = bpy.data.images.get(names.SHADOW_CASCADES_IMAGE)
+    blocks = -(-count // shadow_map.CASCADES_PER_BLOCK)
+    if (atlas is None or params is None or tuple(atlas.size) != (blocks * resolution, resolution)
+            or tuple(params.size) != (count + 1, len(shadow_map.PARAM_ROWS))):
+        empty = np.broadcast_to(np.float32(shadow_map.EMPTY_DEPTH), (count, resolution, resolution))   # no copy
+        write_images(shadow_map.ShadowCascades(np.eye(3), np.zeros((count, 2)), np.ones((count, 2)),
+                                               np.ones(count), empty))
+    return bpy.data.images[names.SHADOW_MAP_IMAGE], bpy.data.images[names.SHADOW_CASCADES_IMAGE]
+
+
+def frame_values(cascades: shadow_map.ShadowCascades) -> dict:
+    """The "OLS Frame Values" rows that come from the cascades."""
+    values = {"Light Right": cascades.frame[0], "Light Up": cascades.frame[1],
+              "Far Depth": float(cascades.far_depths[-1])}
+    biases = cascades.biases()
+    for i in range(cascades.count):
+        values[f"Cascade {i} Center"] = (*cascades.centers[i], cascades.far_depths[i])
+        values[f"Cascade {i} Half"] = (*cascades.halves[i], biases[i])
+    return values
+
+
+def camera_values(camera: shadow_map.Camera) -> dict:
+    """The "OLS Frame Values" rows that come from the camera."""
+    return {"Camera Position": camera.position, "Camera Forward": camera.forward,
+            "Camera Right": camera.rotation[:, 0], "Camera Up": camera.rotation[:, 1],
+            "Tan Half FOV": (camera.tan_half_fov[0], camera.tan_half_fov[1], 0.0),
+            "Sky Depth": scattering_pass.sky_depth(camera.clip_end)}
+
+
+def images_intact(shadow_test_group) -> bool:
+    """False when the shadow-map images the group reads were removed or emptied (then the
+    groups are rebuilt with new ones)."""
+    if shadow_test_group is None:
+        return False
+    images = [node.image for node in shadow_test_group.nodes if node.bl_idname == "CompositorNodeImage"]
+    return bool(images) and all(image is not None and image.size[0] > 0 and image.size[1] > 0 for image in images)
+
+
+def remove_images(*extra_names):
+    """Drop the shadow-map images (and ``extra_names``) when the scene is unwired."""
+    release_buffer()
+    for name in (names.SHADOW_MAP_IMAGE, names.SHADOW_CASCADES_IMAGE) + extra_names:
+        image = bpy.data.images.get(name)
+        if image is not None:
+            bpy.data.images.remove(image)

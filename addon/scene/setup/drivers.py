@@ -1,0 +1,51 @@
+"""Drivers that feed node-group inputs from the Sun lamp, the scene camera and scene.ols.
+
+All are simple expressions (no Python evaluation needed, so they run without "Auto Run
+Python Scripts"). Note: RNA paths index matrices column first: matrix_world[c][r].
+"""
+from __future__ import annotations
+
+
+def _drive(socket, index, target_id, data_path, id_type=None, expression="v"):
+    curve = socket.driver_add("default_value", index) if index is not None else socket.driver_add("default_value")
+    driver = curve.driver
+    driver.type = "SCRIPTED"
+    variable = driver.variables.new()
+    variable.name = "v"
+    variable.type = "SINGLE_PROP"
+    if id_type:
+        variable.targets[0].id_type = id_type
+    variable.targets[0].id = target_id
+    variable.targets[0].data_path = data_path
+    driver.expression = expression
+    return curve
+
+
+def drive_sun_direction(socket, sun):
+    """Direction toward the sun = the lamp's local +Z axis in world space (column 2)."""
+    for axis in range(3):
+        _drive(socket, axis, sun, f"matrix_world[2][{axis}]")
+
+
+def drive_from_lamp(socket, sun, lamp_path: str, index=None):
+    _drive(socket, index, sun.data, lamp_path, id_type="LIGHT")
+
+
+def drive_camera_height(socket, scene):
+    """Height of whichever camera is the scene camera (translation z: matrix_world[3][2])."""
+    _drive(socket, None, scene, "camera.matrix_world[3][2]", id_type="SCENE")
+
+
+def drive_scene_setting(socket, scene, name: str):
+    """The control's value as settings.safe_value reads it: NaN (v != v) gives the default, and a
+    value past the control's range (an ID-property write) is clamped into it."""
+    prop = scene.ols.bl_rna.properties[name]
+    expression = f"min(max(v, {prop.hard_min!r}), {prop.hard_max!r}) if v == v else {prop.default!r}"
+    _drive(socket, None, scene, f"ols.{name}", id_type="SCENE", expression=expression)
+
+
+def remove_drivers(tree):
+    if tree is not None and tree.animation_data is not None:
+        for curve in list(tree.animation_data.drivers):
+            tree.animation_data.drivers.remove(curve)
+
