@@ -34,7 +34,8 @@ def _sync_compositor(settings, context):
     renders). Steps, modes and cascade settings rebuild the light-shaft groups, but not here:
     the depsgraph update that follows each change in the UI, a still's render_pre and each
     animation frame's frame_change_pre (which comes before the frame's compositor depsgraph)
-    rebuild them once. A script setting ten controls used to rebuild them ten times, ~1 s each."""
+    rebuild them once. Rebuilt in the callbacks, a script setting ten controls would rebuild
+    them ten times, ~1 s each."""
     if context.scene is not None:
         compositor.sync_settings(context.scene)
 

@@ -1,4 +1,4 @@
-"""The fuzz of issue 9 (tests/addon/test_hostile_controls.py): random combinations of every control
+"""The control fuzz (tests/addon/test_hostile_controls.py): random combinations of every control
 and sun on a 64 x 36 render of the wired sample, this checkout against a baseline commit,
 side by side in one run. Each variant runs in its own process on the same combinations (the
 test's generator and seed); the wired scene's set-up is not timed.

@@ -1,9 +1,9 @@
 """Light-shaft pass benchmark (Cycles CPU): the sample scene at 1280 x 720, 16 samples.
 
-Epipolar sampling (issue 12): the same pass with the epipolar technique, as a ratio of what the
+Epipolar sampling: the same pass with the epipolar technique, as a ratio of what the
 brute-force pass adds (goal <= 1/4, stretch 1/8).
 
-Issue goal: the scattering pass with light shafts at 32 steps adds <= 50% to a 16-sample
+Goal: the scattering pass with light shafts at 32 steps adds <= 50% to a 16-sample
 Cycles render of the sample (defaults otherwise: single LUT, multiple UNOCCLUDED, 6 cascades,
 shadow map 1024).
 

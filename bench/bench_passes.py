@@ -1,6 +1,6 @@
 """Compositor passes benchmark (Cycles CPU): the sample scene at 1280 x 720, 16 samples,
 rendered without compositing and with the add-on's passes (aerial perspective + tone mapping),
-printed side by side with the ratio. Issue goal for the scattering pass: <= 1.5x.
+printed side by side with the ratio. Goal for the scattering pass: <= 1.5x.
 
     .venv/bin/python bench/bench_passes.py [--resolution 1280x720] [--samples 16]
 """

@@ -1,5 +1,5 @@
-"""What a re-render of the wired sample costs after a change (issue 9: the fuzz bar, and every F12
-or animation frame with Persistent Data): the terrain's emission sampled as a light (the
+"""What a re-render of the wired sample costs after a change (paid by every combination of the
+control fuzz and by every F12 or animation frame with Persistent Data): the terrain's emission sampled as a light (the
 baseline: what Set Up Scene did before) against not sampled, side by side in one run.
 
 Each variant runs in its own process (Cycles keeps a material's emission sampling from the

@@ -2,7 +2,7 @@
 into 6 cascades at 1024 texels for the sample's camera and sun, the current rasteriser against a
 baseline revision's (loaded from git), side by side in one run.
 
-Issue 12 goal: <= 0.5 s (2.1 s at the baseline on an idle 2-core machine).
+Goal: <= 0.5 s (2.1 s at the baseline on an idle 2-core machine).
 
     .venv/bin/python bench/bench_shadow_maps.py [--baseline 7311c96] [--repeat 3] [--resolution 1024]
 """

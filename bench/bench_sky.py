@@ -5,7 +5,7 @@ images (EXR load vs numpy foreach_set).
 
     .venv/bin/python bench/bench_sky.py [--resolution 480x270] [--samples 16] [--repeats 2]
 
-Goals (issue): OLS Sky <= 1.5x the Sky Texture; LUT upload < 1 s.
+Goals: OLS Sky <= 1.5x the Sky Texture; LUT upload < 1 s.
 """
 import argparse
 import importlib

@@ -1,4 +1,4 @@
-"""What verifying the tables costs Set Up Scene (issue 9): loading the default bake's six table
+"""What verifying the tables costs Set Up Scene: loading the default bake's six table
 files into Blender images without verification (the baseline: what setup did before) and with it,
 cold (every file hashed) and warm (hashes cached by size and mtime), side by side in one run.
 

@@ -1,4 +1,4 @@
-"""Regenerate lut_gen/data/spectral_data.json, the spectral data the bake ships with.
+"""Regenerate lut_gen/model/data/spectral_data.json, the spectral data the bake ships with.
 
 Development only (the extension itself stays numpy-only). colour-science needs numpy >= 2 and
 bpy 5.0.1 pins numpy < 2, so run it from a separate virtualenv:
@@ -24,7 +24,7 @@ import numpy as np
 import colour
 from colour.plotting.datasets.astm_g_173 import SD_ASTMG173_ETR
 
-OUT = Path(__file__).resolve().parent.parent / "lut_gen" / "data" / "spectral_data.json"
+OUT = Path(__file__).resolve().parent.parent / "lut_gen" / "model" / "data" / "spectral_data.json"
 WAVELENGTHS = np.arange(360, 831, 5)
 
 # Bruneton's kOzoneCrossSection, 360..830 nm in 10 nm steps (m^2 per molecule).

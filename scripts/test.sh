@@ -9,5 +9,5 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 bash scripts/bootstrap.sh
 # No explicit "tests" argument: pyproject's testpaths supplies it when no paths are given,
-# and passing it unconditionally would make `test.sh tests/test_x.py` run the whole suite.
+# and passing it unconditionally would make `test.sh tests/numpy_only/test_x.py` run the whole suite.
 exec .venv/bin/python -m pytest -q "$@"

@@ -110,3 +110,20 @@ def egl():
     if result.returncode != 0:
         pytest.skip(f"EEVEE cannot render here (no EGL?): exit {result.returncode}")
 
+
+def compositor_output(scene, build):
+    """Point the scene's compositor at a fresh tree whose output is build(tree, render_layers)."""
+    tree = bpy.data.node_groups.new("test output", "CompositorNodeTree")
+    tree.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
+    layers = tree.nodes.new("CompositorNodeRLayers")
+    output = tree.nodes.new("NodeGroupOutput")
+    tree.links.new(build(tree, layers), output.inputs[0])
+    scene.compositing_node_group = tree
+
+
+def depth_image(tree, layers):
+    """The Depth pass as a grey image (compositor_output builder)."""
+    combine = tree.nodes.new("CompositorNodeCombineColor")
+    for name in ("Red", "Green", "Blue"):
+        tree.links.new(layers.outputs["Depth"], combine.inputs[name])
+    return combine.outputs["Image"]

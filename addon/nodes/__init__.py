@@ -61,4 +61,3 @@ GROUPS = (
     Group(names.TONE_MAPPING_GROUP, build_tone_mapping_group, "lut_gen.passes.tone_mapping.tone_map",
           "tests/twins/test_tone_mapping.py::test_every_operator_matches_the_sample_formula"),
 )
-GROUP_NAMES = tuple(group.name for group in GROUPS)

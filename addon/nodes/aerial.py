@@ -1,6 +1,6 @@
 """"OLS Aerial Perspective": the compositor group that puts the atmosphere between the camera
 and every surface: L_surface T(C->P) + (L(C) - T(C->P) L(P)) x sun strength x scattering scale
-(eq. 8 of seed 000), the two look-ups on the same side of the horizon seam and the extinction
+(eq. (8) of Yusov 2013), the two look-ups on the same side of the horizon seam and the extinction
 from the optical-depth table. Twin: lut_gen.passes.aerial.aerial_perspective.
 
 Inputs come from render passes (Image, Position, Depth) and "OLS Frame Values" (camera, sun). Pixels
@@ -43,7 +43,7 @@ def build_aerial_group(optical_depth_image, params):
     inscatter = section_node(g, "multiple", camera, point, view, sun, None, transmittance)
     air_light = g.vscale(inscatter, g.mul(gin.outputs["Sun Strength"], gin.outputs["Scattering Scale"]))
     geometry = g.mul(g.math("LESS_THAN", gin.outputs["Depth"], gin.outputs["Sky Depth"]), gin.outputs["Enable"])
-    # The layers of issue 10's multilayer EXR, and the image made from them so that
+    # The layers of the multilayer EXR output, and the image made from them so that
     # Image = render x Transmittance + Inscattering holds to float precision. Sky pixels (and
     # Enable off) pass through: transmittance 1, nothing in-scattered.
     kept = g.vscale(transmittance, g.sub(1.0, gin.outputs["Lighting Only"]))

@@ -1,4 +1,4 @@
-"""Eq. (8) of seed 000 in a compositor tree: light scattered toward the camera from a ray
+"""Eq. (8) of Yusov 2013 in a compositor tree: light scattered toward the camera from a ray
 section start -> end, T(C->start) L(start) - T(C->end) L(end), both look-ups on the side of the
 horizon seam the first one chose (Listing 2). Twin: lut_gen.passes.aerial.section_inscattering."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The shared 4D look-up group: seed 000's Listing 1 over our 2D atlas (see lut_gen/tables/atlas.py).
+"""The shared 4D look-up group: Listing 1 of Yusov 2013 over our 2D atlas (see lut_gen/tables/atlas.py).
 
 Inputs are world quantities; the group applies eqs. (4)-(7) (Listing 2's horizon split for the
 view zenith), filters the view-zenith axis in hardware inside a tile, blends the neighbouring

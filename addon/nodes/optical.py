@@ -48,7 +48,7 @@ def horizon_cos(g, height, params):
 def horizon_safe_cos(g, height, cos_zenith, n_heights, n_cos, params):
     """Rays above the horizon read the table at least at the first cos node above the horizon
     of the lower height row the filter blends, so no Earth-hit texel (1e20) leaks into them.
-    Twin: lut_gen.tables.lookup.horizon_safe_cos."""
+    Twin: lut_gen.tables.optical_depth.horizon_safe_cos."""
     row = g.math("MAXIMUM", g.math("FLOOR", g.mul_add(height, n_heights / params.atmosphere_height, -0.5)), 0.0)
     lower_row_height = g.mul(g.add(row, 0.5), params.atmosphere_height / n_heights)
     node = g.math("CEIL", g.mul_add(g.mul_add(horizon_cos(g, lower_row_height, params), 0.5, 0.5), n_cos, -0.5))
@@ -176,5 +176,5 @@ def quadrature_net_density(g, start, end, params):
 
 
 def ozone_density(g, height):
-    """Bruneton's tent profile (lut_gen.model.atmosphere.ozone_density)."""
+    """Bruneton's tent profile (lut_gen.model.profiles.ozone_density)."""
     return g.clamp(g.sub(1.0, g.div(g.math("ABSOLUTE", g.sub(height, OZONE_PEAK_HEIGHT_M)), OZONE_HALF_WIDTH_M)), 0.0, 1.0)

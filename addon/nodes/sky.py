@@ -42,7 +42,7 @@ def limb_darkened_disc(g, cos_sun_view, angle):
 
 def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, ground_light_image):
     """``skylight_image`` and ``ground_light_image``: the sky and the lit ground for the current
-    sun and camera height as equirectangular panoramas (scene/skylight.py keeps them current).
+    sun and camera height as equirectangular panoramas (scene/frame/skylight.py keeps them current).
     Camera rays evaluate the exact 4D look-up and ground term; every other ray (lighting,
     reflections, EEVEE's world probe) reads the panoramas, two texture fetches: Cycles skips the
     unused branch of a Mix Shader."""

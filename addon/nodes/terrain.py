@@ -3,8 +3,8 @@
 Per shading point: the sun's extinction from the optical-depth table (relative to the scene
 origin, whose extinction the Sun lamp's colour already carries, so the renderer's own lamp
 lighting and shadows still apply) and the ambient skylight from the 1D table with the ground
-occlusion factor saturate((1 + N . up) / 2) of seed 000's terrain snippet, emitted as the
-Lambertian radiance albedo * E / pi. Twin: addon.terrain_twin / lut_gen look-ups.
+occlusion factor saturate((1 + N . up) / 2) of Yusov 2013's terrain snippet, emitted as the
+Lambertian radiance albedo * E / pi. Twin: lut_gen.passes.terrain.terrain_radiance.
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The scene's Sun lamp: the one source of truth for the sun direction (DESIGN.md).
+"""The scene's Sun lamp: the one source of truth for the sun direction (docs/design.md).
 
 Its colour follows the atmosphere's extinction at the scene origin, recomputed when the lamp
 turns (depsgraph / frame handlers), from the optical-depth image already in memory.

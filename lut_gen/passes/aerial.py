@@ -1,13 +1,14 @@
 """Aerial perspective and light shafts between a camera and surface points, from the baked
-tables: the numpy twin of the (coming) light-scattering compositor pass, and the brute-force
-per-pixel reference the epipolar technique will be measured against.
+tables: the numpy twin of the aerial-perspective and light-shaft compositor groups
+(addon/nodes/aerial.py, addon/nodes/light_shafts.py), and the brute-force per-pixel reference
+the epipolar technique is measured against.
 
-World convention (DESIGN.md): metres, Z up, ground at z = 0, Earth centre at (0, 0, -R).
+World convention (docs/design.md): metres, Z up, ground at z = 0, Earth centre at (0, 0, -R).
 
 * ``segment_transmittance``: extinction between two points from the optical-depth table
   (net density to the top from the nearer end minus from the farther end, along the ray, or
   along the reversed ray where the forward one hits the ground).
-* ``segment_inscattering``: eq. (8) of seed 000, L(C) - T(C->P) L(P), both look-ups on the
+* ``segment_inscattering``: eq. (8) of Yusov 2013, L(C) - T(C->P) L(P), both look-ups on the
   same side of the horizon seam (Listing 2).
 * ``light_shafts``: ray marching through a shadow test with the sample's single-scattering
   modes (none / integration / LUT) and multiple-scattering modes (none / occluded /

@@ -1,8 +1,9 @@
-"""Epipolar sampling of the light shafts (seed 001), as per-frame tables: the numpy twin of the
-"OLS Light Shafts" group's epipolar technique, and what the add-on writes before each frame.
+"""Epipolar sampling of the light shafts (Intel 2012, "IVB Atmospheric Light Scattering"), as
+per-frame tables: the numpy twin of the "OLS Light Shafts" group's epipolar technique, and what
+the add-on writes before each frame.
 
 Every view ray of the frame lies in a plane through the camera that holds the sun direction
-(an epipolar slice, seed 001 section 4). A ray is named by two angles: ``phi``, the slice's turn
+(an epipolar slice, section 4 of Intel 2012). A ray is named by two angles: ``phi``, the slice's turn
 about the sun axis, and ``theta``, the ray's angle from the sun within its slice. The epipole is
 theta = 0, the anti-solar point theta = pi, so the epipole on screen, off screen or behind the
 camera needs no special case, and no slice has a seam (a full turn of phi repeats its first
@@ -210,7 +211,7 @@ class EpipolarTables:
 
 def initial_samples(samples: int, step: int, density: int) -> np.ndarray:
     """Indices of the initially marched samples of a slice: every ``step``-th, and near the
-    epipole (the first eighth of the slice) every ``step / density``-th, as seed 001 places
+    epipole (the first eighth of the slice) every ``step / density``-th, as Intel 2012 places
     them; the last sample always."""
     step = max(int(step), 1)
     near_step = max(step // max(int(density), 1), 1)

@@ -15,7 +15,7 @@ the shadowed minus the unshadowed in-scattering the pass adds is
 (F = 0, L = end) the difference is exactly 0, and in full shadow only the multiple
 scattering's share stays, as for brute force. The aerial perspective's own in-scattering
 I_s(end) + I_h(end) comes from the same tables, so the pass evaluates no eq. (8) per pixel at
-all (the seed's epipolar technique interpolates all of its in-scattering too).
+all (the epipolar technique of Intel 2012 interpolates all of its in-scattering too).
 
 Before each frame numpy evaluates I at the nodes of a coarser grid of the same (phi, theta)
 parametrisation as the lit-length tables (lut_gen.passes.epipolar) and a geometric distance grid out

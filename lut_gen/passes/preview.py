@@ -9,7 +9,7 @@ import numpy as np
 from ..tables.lookup import Luts
 from ..model.sun_disc import limb_profile
 
-# The sample's extraterrestrial sun: intensity 10, scattering scale 0.5 (DESIGN.md).
+# The sample's extraterrestrial sun: intensity 10, scattering scale 0.5 (docs/lut_gen.md: Parameters).
 SUN_INTENSITY = 10.0
 SCATTERING_SCALE = 0.5
 MIDDLE_GRAY = 0.18

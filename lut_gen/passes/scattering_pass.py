@@ -2,8 +2,8 @@
 (image, position, depth), sun shadow cascades and the baked tables -> radiance.
 
 This is the twin the "OLS Aerial Perspective" and "OLS Light Shafts" compositor groups are
-tested against, and the brute-force per-pixel reference for later techniques. It runs on render
-passes saved to a multilayer EXR (``load_render_passes``).
+tested against, and the brute-force per-pixel reference the epipolar technique is measured
+against. It runs on render passes saved to a multilayer EXR (``load_render_passes``).
 
 Per pixel, with E the surface point (geometry) or the point where the view ray leaves the last
 shadow cascade (sky):

@@ -1,4 +1,4 @@
-"""Precomputation of the scattering tables (seed 000, "Multiple Scattering").
+"""Precomputation of the scattering tables (Yusov 2013, "Multiple Scattering").
 
 Stages, each a pure function of AtmosphereParams:
   optical depth   net Rayleigh/Mie/ozone density from (height, cos zenith) to the top

@@ -1,4 +1,4 @@
-"""Table coordinates of seed 000, eqs. (4)-(7) and Listing 2, and their inverses.
+"""Table coordinates of Yusov 2013, eqs. (4)-(7) and Listing 2, and their inverses.
 
 All coordinates here are *texel indices* x in [0, N-1] of a table axis with N nodes:
 node i holds the value at x = i, a look-up at x blends nodes floor(x) and floor(x)+1.
@@ -10,7 +10,7 @@ Axes of the 4D scattering table, in this order:
   phi    cos sun zenith c_s,         Bruneton's arctan mapping                     (eq. 6)
   theta  cos sun-view angle c_t,     power-1.5 mapping of gamma = theta / pi       (eq. 7)
 
-Eq. (6) as printed in seed 000 puts tan(1.26*1.1) outside the arctan; Bruneton's code (and the
+Eq. (6) as printed in Yusov 2013 puts tan(1.26*1.1) outside the arctan; Bruneton's code (and the
 only version that maps [-0.1975, 1] onto [0, 1]) multiplies inside: atan(c * tan(1.386)) / 1.1.
 
 Eq. (7) with power 1.5 packs sun-view nodes around the sun for the Mie forward peak. The tables

@@ -271,7 +271,7 @@ def _ozone_line(params: AtmosphereParams, r, mu, nodes_per_panel: int) -> np.nda
     half = 0.5 * (hi - lo)
     s = 0.5 * (hi + lo) + half * x
     rs = _radius_along(r, mu, s)
-    # The tent profile of atmosphere.ozone_density, written out for speed (tested equal).
+    # The tent profile of profiles.ozone_density, written out for speed (tested equal).
     tent = np.maximum(1.0 - np.abs(rs - (params.earth_radius + OZONE_PEAK_HEIGHT_M)) / OZONE_HALF_WIDTH_M, 0.0)
     return np.einsum("nkj,j,nk->n", tent, w, half[..., 0])
 

@@ -47,7 +47,7 @@ def test_eevee_without_egl_is_reported(batch, tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(batch, "egl_available", lambda: False)
     assert batch.main(["--sample", "--engine", "EEVEE", "--output", str(tmp_path / "o.png")]) == 1
     assert "EEVEE needs EGL" in error_line(capsys)
-    # With EGL, one line explains the EGL_BAD_MATCH noise EEVEE prints (issue 11).
+    # With EGL, one line explains the EGL_BAD_MATCH noise EEVEE prints.
     monkeypatch.setattr(batch, "egl_available", lambda: True)
     assert batch.main(["--blend", str(tmp_path / "missing.blend"), "--engine", "EEVEE",
                        "--output", str(tmp_path / "o.png")]) == 1
@@ -86,12 +86,12 @@ def render_args(blend, out):
 
 def test_wired_blend_with_damaged_tables_is_repaired_before_it_renders(batch, wired_blend, tmp_path, capsys,
                                                                        addon_package):
-    """Issue 9, item 1: a truncated table in a wired .blend's cache rendered 99.7% wrong pixels
+    """A truncated table in a wired .blend's cache rendered 99.7% wrong pixels
     with exit 0. Now the file load finds the damage, bakes again, and the render is right."""
     blend, directory = wired_blend
     assert batch.main(render_args(blend, tmp_path / "good.png")) == 0
     # After a render the adaptation read-back node holds no absolute temporary path and is muted,
-    # so a .blend saved now writes nothing when rendered without the add-on (issue 9, item 8).
+    # so a .blend saved now writes nothing when rendered without the add-on.
     output = bpy.context.scene.compositing_node_group.nodes["OLS Adapted Luminance"]
     assert output.mute and output.directory == ""
     good = bpy.data.images.load(str(tmp_path / "good.png"))
@@ -137,7 +137,7 @@ print("rendered")
 
 
 def test_farm_render_of_damaged_tables_exits_1_before_any_frame(wired_blend, tmp_path):
-    """Issue 9, item 1: `blender -b shot.blend -a` runs no script of ours, and a handler cannot
+    """`blender -b shot.blend -a` runs no script of ours, and a handler cannot
     cancel a render. Where the load's repair bake cannot be written, the render's start ends
     the process with one error line and status 1, before a frame is written."""
     blend, directory = wired_blend
@@ -157,7 +157,7 @@ def test_farm_render_of_damaged_tables_exits_1_before_any_frame(wired_blend, tmp
 
 def test_wired_blend_whose_tables_are_gone_and_cannot_be_baked_is_not_rendered(batch, wired_blend, tmp_path,
                                                                                capsys, monkeypatch):
-    """Issue 9, item 1: with the tables deleted and the cache unwritable it rendered no sky, exit 0."""
+    """With the tables deleted and the cache unwritable it rendered no sky, exit 0."""
     blend, directory = wired_blend
     for path in directory.glob("*.exr"):
         path.unlink()
@@ -171,7 +171,7 @@ def test_wired_blend_whose_tables_are_gone_and_cannot_be_baked_is_not_rendered(b
 
 
 def test_render_operator_refuses_deleted_tables(wired_blend, tmp_path):
-    """Issue 9, item 1: ols.render after the table files were deleted said "Rendered"."""
+    """ols.render after the table files were deleted said "Rendered"."""
     blend, directory = wired_blend
     for path in directory.glob("*.exr"):
         path.unlink()
@@ -183,7 +183,7 @@ def test_render_operator_refuses_deleted_tables(wired_blend, tmp_path):
 
 @pytest.mark.parametrize("operator", ["bake_luts", "setup_scene"])
 def test_bake_tables_and_set_up_scene_repair_a_damaged_bake(wired_blend, addon_package, operator):
-    """Issue 9, items 2-3: with a bit-flipped table Bake Tables said "Tables ready" and Set Up
+    """With a bit-flipped table Bake Tables said "Tables ready" and Set Up
     Scene kept failing until the folder was deleted. Both bake it again in place."""
     blend, directory = wired_blend
     path = directory / "single_scattering.exr"
@@ -201,7 +201,6 @@ def test_bake_tables_and_set_up_scene_repair_a_damaged_bake(wired_blend, addon_p
 PLAIN_RENDER = """
 import sys
 import bpy
-from extension import ROOT, extension_module
 bpy.ops.wm.open_mainfile(filepath=sys.argv[1])          # no add-on: what another machine does
 scene = bpy.context.scene
 scene.render.resolution_x, scene.render.resolution_y, scene.cycles.samples = 32, 18, 1
@@ -212,7 +211,7 @@ bpy.ops.render.render(write_still=True)
 
 def test_a_saved_blend_holds_no_temporary_path_and_writes_nothing_without_the_add_on(batch, wired_blend,
                                                                                     tmp_path):
-    """Issue 9, item 8: the adaptation File Output node saved the system temporary folder in the
+    """The adaptation File Output node saved the system temporary folder in the
     .blend; rendered without the add-on it wrote adapted_luminance_.exr there, following a link
     planted under that name. After a render with light adaptation, the saved file holds no
     temporary path, and a render of it without the add-on writes nothing there."""
@@ -343,7 +342,7 @@ def test_script_entry_point_runs(tmp_path):
                             capture_output=True, text=True, timeout=600, env=env)
     assert result.returncode == 0, result.stderr[-2000:]
     assert out.read_bytes().startswith(b"\x89PNG")
-    # Progress, stage by stage, as plain lines (issue 11): the bake, the scene, the render, the total.
+    # Progress, stage by stage, as plain lines: the bake, the scene, the render, the total.
     lines = result.stdout.splitlines()
     for expected in ("scene: building the sample terrain", "bake: single scattering 100%", "scene: wiring",
                      "render: frame 1: ", "render: frame 1 rendered and composited", "total time "):
@@ -385,7 +384,7 @@ def read_png(path):
 
 def test_gallery_preset_is_a_real_landscape(batch, tmp_path):
     """The README gallery's golden-hour preset at 160 x 90: not flat, not clipped, no NaN, sky
-    above terrain (issue 11)."""
+    above terrain."""
     png, exr = tmp_path / "golden.png", tmp_path / "golden.exr"
     for out in (png, exr):
         assert batch.main(["--sample", "--tables", "draft", "--preset", "golden-hour", "--resolution", "160x90",

@@ -14,7 +14,7 @@ from extension import extension_module
 
 pytestmark = pytest.mark.bpy
 
-# The bar: 200 combinations in under 3 minutes. On 2 cores this whole file (the wired
+# The bar: 200 combinations in under 3 minutes. On 2 cores this whole file (the wired
 # scene's set-up, the NaN test and all 200) took 165 s on 2026-12-01 (438 s for the 200 alone
 # the day before): small renders now use shadow maps and epipolar tables no larger than their
 # pixels resolve (lut_gen.passes.render_detail: the 4096-texel maps and 2048 x 2048 tables cost

@@ -1,4 +1,4 @@
-"""Tables that travel with the .blend (issue 10): a packed file renders on a worker whose cache
+"""Tables that travel with the .blend: a packed file renders on a worker whose cache
 is empty and cannot be written, without baking; an unpacked one re-bakes with one line; damaged
 packed tables are named and re-baked; no absolute cache path is saved."""
 import json

@@ -1,4 +1,4 @@
-"""Pipeline output (issue 10): renders saved as OpenEXR hold scene-linear radiance with the
+"""Pipeline output: renders saved as OpenEXR hold scene-linear radiance with the
 atmosphere applied, display formats the chosen tone mapping; the "Blender View Transform"
 operator leaves the curve to the scene's own view transform."""
 
@@ -65,7 +65,7 @@ def test_exr_is_scene_linear_and_png_is_tone_mapped(addon_package, wired, tmp_pa
     scene.ols.tone_map_exr = True
     mapped = render_rgb(scene, tmp_path / "mapped.exr", composite=True)
     assert np.abs(twin.srgb_encode(mapped) - png).max() <= 2e-3
-    # The linear EXR is the numpy twins' composite of the same render passes (issue 10's bar:
+    # The linear EXR is the numpy twins' composite of the same render passes (the bar:
     # median relative error <= 1e-3).
     passes = render_passes(addon_package, scene, tmp_path)
     expected = Twin(addon_package, scene, passes)()

@@ -212,7 +212,7 @@ def scene_state(scene):
 
 @pytest.mark.parametrize("damage", ["zero scale", "NaN rotation"])
 def test_a_broken_sun_fails_setup_with_its_name_and_changes_nothing(addon, damage, capfd):
-    """Issue 9, item 5: "cannot convert float NaN to integer" and a half-wired scene before."""
+    """A broken sun gave "cannot convert float NaN to integer" and a half-wired scene before."""
     bpy.ops.wm.read_factory_settings()                        # the default cube, camera and light
     scene = bpy.context.scene
     bpy.ops.object.light_add(type="SUN")
@@ -244,7 +244,7 @@ def test_setup_scene_twice_adds_nothing(addon):
 
 def test_render_operator_paths(addon, tmp_path):
     """A folder is refused, not written as "DIR.png"; an unsaved file's "//" default goes to the
-    system's temporary folder instead of failing after the render (issues 9 and 11)."""
+    system's temporary folder instead of failing after the render."""
     import tempfile
     camera_and_sun_scene(addon)
     for folder in (str(tmp_path) + "/", str(tmp_path)):

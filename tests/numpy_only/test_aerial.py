@@ -1,5 +1,5 @@
 """Aerial perspective and light shafts from the tables (lut_gen.passes.aerial) against brute force and
-the energy identities the issue asks for."""
+the energy identities they must keep."""
 import numpy as np
 import pytest
 

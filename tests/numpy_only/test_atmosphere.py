@@ -1,4 +1,4 @@
-"""AtmosphereParams defaults (DESIGN.md table), validation and phase functions."""
+"""AtmosphereParams defaults (docs/lut_gen.md: Parameters), validation and phase functions."""
 import math
 
 import numpy as np

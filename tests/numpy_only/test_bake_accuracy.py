@@ -1,4 +1,4 @@
-"""Baked tables against the brute-force reference and against physics (seed 000)."""
+"""Baked tables against the brute-force reference and against physics (Yusov 2013)."""
 
 import numpy as np
 import pytest
@@ -27,9 +27,9 @@ def random_rays(n, seed, max_height=20_000.0, max_sun_zenith_deg=95.0):
 
 
 def issue_rays(n, seed):
-    """The rays of issue 8: heights 0-20 km squared (dense near the ground), a tenth of them
-    downward rays from 0-20 m, a tenth the zenith with the sun within 35 deg of it, a tenth
-    within 5 deg of the sun, the rest any view; sun zenith 0-95 deg."""
+    """The rays of the accuracy bar: heights 0-20 km squared (dense near the ground), a tenth
+    of them downward rays from 0-20 m, a tenth the zenith with the sun within 35 deg of it, a
+    tenth within 5 deg of the sun, the rest any view; sun zenith 0-95 deg."""
     rng = np.random.default_rng(seed)
     h = 20_000.0 * rng.uniform(0, 1, n) ** 2
     cos_view = rng.uniform(-1, 1, n)
@@ -73,7 +73,7 @@ def single_vs_reference(default_luts):
 def test_single_table_median_error_within_one_percent(single_vs_reference):
     _, groups, err = single_vs_reference
     assert np.median(err) <= 0.01
-    # The issue's bar is on the whole set; each group of it is held near it too. Measured
+    # The bar is on the whole set; each group of it is held near it too. Measured
     # (seeds 5-41): short ground rays 0.29-0.38%, the midday zenith 0.20-0.32%, 5 deg around
     # the sun 0.40-0.60% (linear blending along height and sun zenith gave 0.26%, 0.81% and 1.2%).
     limits = {"downward near the ground": 0.005, "zenith at high sun": 0.005, "5 deg around the sun": 0.01}
@@ -82,7 +82,7 @@ def test_single_table_median_error_within_one_percent(single_vs_reference):
 
 
 def test_single_table_tail(single_vs_reference):
-    """Issue 8 asks p99 <= 5%. Measured over 8000 rays (seeds 5-41): p95 1.4%, p99 2.9%, per
+    """The bar: p99 <= 5%. Measured over 8000 rays (seeds 5-41): p95 1.4%, p99 2.9%, per
     seed 2.1-3.7% (seed 11 alone: 2.3%). The rays over 5% (0.6%) are at twilight, sun zenith
     > 88 deg, where single scattering falls by orders of magnitude between neighbouring nodes.
     The tail was 4.3% (per seed up to 5.4%) while the optical-depth table overestimated the Mie
@@ -140,8 +140,8 @@ def test_multiple_is_at_least_single(default_luts):
     multiple = default_luts.sky_radiance(*rays, table="multiple")
     higher = default_luts.sky_radiance(*rays, table="higher")
     assert np.all(multiple >= single * (1 - 1e-6))
-    # Blending geometrically along height and sun zenith (sampling.GEOMETRIC_AXES) is not
-    # additive: by Hoelder's inequality the blend of a sum is at least the sum of the blends.
+    # Blending geometrically along height and sun zenith (lut_gen.tables.lookup.GEOMETRIC_AXES)
+    # is not additive: by Hoelder's inequality the blend of a sum is at least the sum of the blends.
     # Measured: median 8e-5, p99 0.4% of the total where it is above 1e-5 (the worst at twilight,
     # where single scattering vanishes at one node and the higher orders do not).
     assert np.all(multiple >= (single + higher) * (1 - 1e-5) - 1e-12)
@@ -161,7 +161,7 @@ def zenith_higher_share(luts, sun_elevation_deg):
 def test_daylight_multiple_scattering_share(default_luts):
     """Zenith at sun 45 deg. Measured: +28 / +38 / +58% (red, green, blue) with the ground
     (albedo 0.2), which lights the sky from below in every channel; the Monte Carlo path tracer
-    agrees to 1-4% (tests/test_multiple_scattering_mc.py)."""
+    agrees to 1-4% (tests/numpy_only/test_multiple_scattering_mc.py)."""
     single, multiple = zenith_higher_share(default_luts, 45.0)
     ratio = multiple / single - 1            # (multiple - single) / single, per channel
     assert ratio[0] < ratio[1] < ratio[2]    # bluer light scatters more
@@ -195,7 +195,8 @@ def bakes_by_order():
 
 # The share of order 4 grows with the ground, which feeds every order, and with the aerosol
 # (measured: up to 8.7% / 8.7% / 9.1% in blue at sun 45 / 10 / -5 deg for albedo 0.2 and the clear
-# day's aerosol; tests/test_multiple_scattering_mc.py checks each order against Monte Carlo).
+# day's aerosol; tests/numpy_only/test_multiple_scattering_mc.py checks each order against
+# Monte Carlo).
 @pytest.mark.parametrize("sun_elevation, max_order4_share", [(45.0, 0.10), (10.0, 0.10), (-5.0, 0.10)])
 def test_orders_converge(bakes_by_order, sun_elevation, max_order4_share):
     cos_sun = np.sin(np.radians(sun_elevation))
@@ -212,7 +213,7 @@ def test_horizon_seam_is_continuous_for_a_consistent_flag(default_luts):
     """Sweeping a view across the horizon with one horizon flag never blends across the seam
     (texels n/2 - 1 | n/2): the look-ups vary no more than the nodes of that half they span.
     Deciding the flag per look-up instead jumps
-    between the sky and the ground side of the table (Figure 5 of seed 000)."""
+    between the sky and the ground side of the table (Figure 5 of Yusov 2013)."""
     half = default_luts.dims[1] // 2
     cos_sun, cos_sun_view = 0.3, 0.1
     for h in (500.0, 5000.0, 15000.0):

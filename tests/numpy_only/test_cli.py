@@ -46,7 +46,7 @@ def test_every_param_has_an_option(tmp_path):
     (["--ozone-column", "-5"], "ozone_column must be between 0 and 2000"),
     (["--ozone-column", "nan"], "ozone_column must be between 0 and 2000"),
     (["--preset", "sample-2012"], "unknown preset 'sample-2012'; choose one of clear-sky, sample-2013"),
-    # Huge finite values (issue 9): all-NaN tables or negative optical depths before.
+    # Huge finite values: all-NaN tables or negative optical depths before.
     (["--aerosol-density", "1e30"], "aerosol_density must be between 0 and 1000"),
     (["--aerosol-absorption", "1e308"], "aerosol_absorption must be between 0 and 1000"),
     (["--mie-scattering", "1e-5", "1e-5", "1e308"], "mie_scattering.b must be between 0 and 0.01"),
@@ -172,7 +172,7 @@ def test_sample_never_replaces_a_file_it_did_not_write(tmp_path):
 
 
 def test_sample_into_another_bakes_folder_says_what_sample_can_do(tmp_path):
-    """Issue 9, item 11: sample suggested --overwrite, which it does not have, and only after
+    """sample suggested --overwrite, which it does not have, and only after
     the whole bake. Now it refuses before baking, in its own words, and changes nothing."""
     assert run("bake", "--out", str(tmp_path / "l"), *SMALL, "--quiet").returncode == 0
     before = {p.name: p.read_bytes() for p in (tmp_path / "l").iterdir()}
@@ -188,7 +188,7 @@ def test_sample_into_another_bakes_folder_says_what_sample_can_do(tmp_path):
 
 
 def test_an_empty_out_is_a_usage_error_and_writes_nothing(tmp_path):
-    """Issue 9, item 7: --out "" baked into the current directory."""
+    """--out "" baked into the current directory."""
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     result = subprocess.run([sys.executable, "-m", "lut_gen", "bake", "--out", "", *SMALL], capture_output=True,
                             text=True, cwd=tmp_path, env=env, timeout=300)
@@ -197,7 +197,7 @@ def test_an_empty_out_is_a_usage_error_and_writes_nothing(tmp_path):
 
 
 def test_overwrite_into_a_damaged_copy_of_the_same_bake_bakes_it_again(tmp_path):
-    """Issue 9, item 3: with a damaged file, bake said "cache hit ... nothing to do", even with
+    """With a damaged file, bake said "cache hit ... nothing to do", even with
     --overwrite. Now it is baked again, and said so."""
     assert run("bake", "--out", str(tmp_path / "l"), *SMALL, "--quiet").returncode == 0
     path = tmp_path / "l" / "higher_order_scattering.exr"
@@ -214,7 +214,7 @@ def test_overwrite_into_a_damaged_copy_of_the_same_bake_bakes_it_again(tmp_path)
 
 
 def test_bake_does_not_hang_on_a_fifo_named_like_a_table(tmp_path):
-    """Issue 9, item 10: a FIFO named like a table made bake hang forever."""
+    """A FIFO named like a table made bake hang forever."""
     assert run("bake", "--out", str(tmp_path / "l"), *SMALL, "--quiet").returncode == 0
     (tmp_path / "l" / "optical_depth.exr").unlink()
     os.mkfifo(tmp_path / "l" / "optical_depth.exr")
@@ -228,7 +228,7 @@ def test_bake_does_not_hang_on_a_fifo_named_like_a_table(tmp_path):
 
 
 def test_two_bake_processes_into_one_folder_never_mix(tmp_path):
-    """Issue 9, item 6: two bakes with different parameters into one --out both exited 0, one
+    """Two bakes with different parameters into one --out both exited 0, one
     silently replacing the other. As two processes started together: one wins, the other exits
     1 naming the bake that is there, and the folder verifies as the winner's."""
     env = dict(os.environ, PYTHONPATH=str(ROOT))

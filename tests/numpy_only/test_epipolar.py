@@ -37,7 +37,7 @@ from occluders import CAMERA, SCALE, SUN_STRENGTH, Scene, compare, fence, look_a
 @pytest.mark.parametrize("name, boxes", [("pillars", pillars()), ("fence", fence())])
 @pytest.mark.parametrize("elevation, azimuth", [(4.0, 5.0), (12.0, -20.0)])
 def test_epipolar_matches_brute_force_behind_thin_occluders(draft_luts, name, boxes, elevation, azimuth):
-    """Low sun behind pillars or a fence: the shafts through the gaps. Issue 12 bar: PSNR >= 40 dB
+    """Low sun behind pillars or a fence: the shafts through the gaps. The bar: PSNR >= 40 dB
     at the same steps, shadow maps and modes."""
     scene = Scene(boxes, CAMERA, sun_at(elevation, azimuth), 160, 90)
     quality, brute, epi = compare(scene, draft_luts, num_integration_steps=32, epipolar_slices=256,

@@ -123,7 +123,7 @@ def test_files_of_different_bakes_are_refused(saved, tmp_path):
 
 
 def test_a_hostile_header_is_an_error_not_a_crash(saved):
-    """100 000 nested brackets in ols.params gave a RecursionError (issue 9, item 9)."""
+    """100 000 nested brackets in ols.params gave a RecursionError."""
     for name in FILES.values():
         rewrite(saved / name, change_header=lambda h: h.update({"ols.params": "[" * 100_000}))
     reseal(saved)

@@ -20,7 +20,7 @@ from rays import ray
 
 # The sample's three-channel media with a black ground: the reference integrates exactly
 # these. The spectral media and the ground are checked against the Monte Carlo path tracer
-# (tests/test_multiple_scattering_mc.py).
+# (tests/numpy_only/test_multiple_scattering_mc.py).
 PARAMS = AtmosphereParams(spectral=False, ozone=False, ground_albedo=0.0)
 
 

@@ -1,6 +1,5 @@
-"""Bake directories that are damaged, mixed, half-written, foreign or shared (issue 9, items 2-4,
-6, 7 and 10): every one is either repaired or refused with one clear line, and nothing that is
-not ours is touched."""
+"""Bake directories that are damaged, mixed, half-written, foreign or shared: every one is either
+repaired or refused with one clear line, and nothing that is not ours is touched."""
 import json
 import os
 import subprocess
@@ -101,7 +100,7 @@ def test_a_bake_killed_between_renames_is_not_a_bake(baked, monkeypatch):
 
 
 def test_a_full_disk_while_writing_keeps_the_old_bake(baked, monkeypatch, capsys):
-    """Issue 9, item 9: a full disk while the new tables are written (OpenEXR raises a bare
+    """A full disk while the new tables are written (OpenEXR raises a bare
     RuntimeError) is one error line and exit 1 from the CLI; the old bake is left as it was,
     byte for byte, and still verifies; no temporary file stays."""
     from lut_gen import cli

@@ -1,4 +1,4 @@
-"""Eqs. (4)-(7) of seed 000 and Listing 2: texel mappings and their inverses."""
+"""Eqs. (4)-(7) of Yusov 2013 and Listing 2: texel mappings and their inverses."""
 import numpy as np
 import pytest
 

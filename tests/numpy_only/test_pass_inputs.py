@@ -1,6 +1,5 @@
 """``python -m lut_gen pass`` refuses render passes that do not belong to the saved inputs (another
-size, NaN or infinite values) with one line before any work, and never writes negative light
-(issue 9, item 11)."""
+size, NaN or infinite values) with one line before any work, and never writes negative light."""
 import numpy as np
 import OpenEXR
 import pytest
@@ -80,7 +79,7 @@ def test_tiny_crops_give_finite_non_negative_light(luts_dir, tmp_path, size):
 
 
 def test_a_depth_pass_of_another_size_is_refused(luts_dir, tmp_path, capsys):
-    """Issue 9, item 11: a Depth part of another size gave a numpy broadcast error."""
+    """A Depth part of another size gave a numpy broadcast error."""
     scene, inputs = scene_files(tmp_path, 32, 18)
     passes = write_passes(tmp_path / "passes.exr", scene.image, scene.position, scene.depth)
     with OpenEXR.File(str(passes), separate_channels=True) as exr:
@@ -103,7 +102,7 @@ def test_a_depth_pass_of_another_size_is_refused(luts_dir, tmp_path, capsys):
 
 @pytest.mark.parametrize("field", ["centers", "halves", "far_depths", "frame", "camera_position", "clip_end"])
 def test_non_finite_inputs_are_refused(luts_dir, tmp_path, capsys, field):
-    """Issue 9, item 9: a NaN camera position gave an IndexError; every array of the inputs is
+    """A NaN camera position gave an IndexError; every array of the inputs is
     checked (the cascades' rectangles too), with one line naming it."""
     scene, inputs = scene_files(tmp_path, 32, 18)
     passes = write_passes(tmp_path / "passes.exr", scene.image, scene.position, scene.depth)
@@ -119,7 +118,7 @@ def test_non_finite_inputs_are_refused(luts_dir, tmp_path, capsys, field):
 
 
 def test_pass_steps_out_of_range_are_refused_before_any_work(luts_dir, tmp_path, capsys):
-    """Issue 9, item 9: --steps 1000000 ran out of memory (W x H x steps)."""
+    """--steps 1000000 ran out of memory (W x H x steps)."""
     scene, inputs = scene_files(tmp_path, 32, 18)
     passes = write_passes(tmp_path / "passes.exr", scene.image, scene.position, scene.depth)
     assert cli.main(["pass", "--luts", str(luts_dir), "--passes", str(passes), "--inputs", str(inputs),
@@ -130,7 +129,7 @@ def test_pass_steps_out_of_range_are_refused_before_any_work(luts_dir, tmp_path,
 
 
 def test_pass_with_tables_of_a_hostile_header_is_one_error_line(luts_dir, tmp_path, capsys):
-    """Issue 9, item 9: 100 000 nested brackets in ols.params gave a RecursionError from pass."""
+    """100 000 nested brackets in ols.params gave a RecursionError from pass."""
     import shutil
     from test_exr_io import reseal, rewrite
     hostile = tmp_path / "hostile"
@@ -147,7 +146,7 @@ def test_pass_with_tables_of_a_hostile_header_is_one_error_line(luts_dir, tmp_pa
 
 
 def test_an_unwritable_out_is_named_before_any_work(luts_dir, tmp_path, capsys):
-    """Issue 9, item 11: --out errors named the temporary file, after the whole pass."""
+    """--out errors named the temporary file, after the whole pass."""
     scene, inputs = scene_files(tmp_path, 32, 18)
     passes = write_passes(tmp_path / "passes.exr", scene.image, scene.position, scene.depth)
     (tmp_path / "file").write_text("x")

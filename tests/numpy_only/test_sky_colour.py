@@ -1,4 +1,4 @@
-"""The colours and the shape of the baked sky against what real clear skies show (issue 8):
+"""The colours and the shape of the baked sky against what real clear skies show:
 blue days, blue twilight zenith with the Belt of Venus and the Earth's shadow, a warm sunset
 horizon, a smooth round aureole, a lit ground, the CIE standard clear sky's luminance shape."""
 import numpy as np
@@ -84,7 +84,7 @@ def hazy_luts():
 
 @pytest.mark.parametrize("sun_elevation", [20.0, 40.0, 60.0])
 def test_luminance_distribution_follows_the_cie_clear_sky(default_luts, sun_elevation):
-    """The issue's bar: RMS <= 0.10. Measured (README): 0.083 / 0.092 / 0.066 at sun 20 / 40 / 60
+    """The bar: RMS <= 0.10. Measured (README): 0.083 / 0.092 / 0.066 at sun 20 / 40 / 60
     deg with the clear day's aerosol of the default; the sample's four times cleaner aerosol gave
     0.10 / 0.14 / 0.19 (its horizon too bright against the zenith at a high sun)."""
     assert cie_rms(default_luts, sun_elevation) <= 0.10

@@ -1,5 +1,5 @@
 """Blender's factory-default scene, then Set Up Scene, then a render: a shaded cube over lit
-ground (issue 8). The three-wavelength tables with a black ground gave a solid white cube: auto
+ground. The three-wavelength tables with a black ground gave a solid white cube: auto
 exposure was set by the dark world below the horizon. Each engine renders in a subprocess (a
 fresh factory scene; EEVEE aborts the process without EGL)."""
 import json

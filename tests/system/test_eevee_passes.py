@@ -21,8 +21,7 @@ SCRIPT = textwrap.dedent("""
     from pathlib import Path
     from conftest import import_extension
     pkg = import_extension(); pkg.register()
-    from test_tone_mapping import sample_scene
-    from test_aerial_pass import compositor_output, depth_image
+    from scenes import compositor_output, depth_image, sample_scene
     from render_util import render_rgb
     out = Path({out!r})
     scene = sample_scene(pkg)

@@ -1,4 +1,4 @@
-"""Issue 10's chunk bar as a farm runs it: frames 1-6 of the sample with Animate Sun, a moving
+"""Chunked rendering as a farm runs it: frames 1-6 of the sample with Animate Sun, a moving
 camera, light adaptation and light shafts, rendered by scripts/render.py as one job and as three
 2-frame chunks, each in its own process with its own empty, read-only cache directory and the
 tables packed in the .blend. The frames must be identical (same Cycles seed)."""

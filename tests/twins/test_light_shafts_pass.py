@@ -75,7 +75,7 @@ def test_every_scattering_mode_matches_the_twin_and_shafts_show(addon_package, t
     assert max(tails.values()) <= 1e-3, tails
     if technique == "EPIPOLAR_SAMPLING":
         # The sample with the low sun behind the ridge: epipolar against brute force at the same
-        # steps, shadow maps and modes, in display values (issue 12: PSNR >= 40 dB).
+        # steps, shadow maps and modes, in display values (the bar: PSNR >= 40 dB).
         brute = twin(scattering_technique="BRUTE_FORCE")
         exposure = 0.18 / np.exp(np.mean(np.log(np.maximum(brute @ [0.2126, 0.7152, 0.0722], 0) + 1e-6)))
         shown = [np.clip(x * exposure / (1 + x * exposure), 0, 1) for x in (expected, brute)]
@@ -95,7 +95,7 @@ def test_every_scattering_mode_matches_the_twin_and_shafts_show(addon_package, t
         assert cli.main(["pass", "--luts", str(luts_dir), "--passes", str(tmp_path / "passes.exr"), "--technique",
                          "brute-force", "--inputs", str(tmp_path / "inputs.npz"), "--out", str(tmp_path / "bf.exr")]) == 0
         np.testing.assert_allclose(read_exr(tmp_path / "bf.exr")[::-1], brute, rtol=1e-5, atol=1e-7)
-        # Hostile input gets one line and status 1, before any work (issue 9, items 9 and 11).
+        # Hostile input gets one line and status 1, before any work.
         common = ["pass", "--luts", str(luts_dir), "--passes", str(tmp_path / "passes.exr"), "--out",
                   str(tmp_path / "bad.exr")]
         assert cli.main([*common, "--inputs", str(tmp_path / "inputs.npz"), "--steps", "1000000"]) == 1
