@@ -49,9 +49,18 @@ def sample_triangles():
     return triangles, camera, sun / np.linalg.norm(sun), max(camera_object.data.clip_start, 1.0), far
 
 
+# Where the rasteriser lives: today's layout, then the flat lut_gen of older revisions.
+RASTERISER_PATHS = ("lut_gen/passes/shadow_map.py", "lut_gen/shadow_map.py")
+
+
 def baseline_module(revision):
-    source = subprocess.run(["git", "show", f"{revision}:lut_gen/passes/shadow_map.py"], cwd=ROOT, check=True,
-                            capture_output=True, text=True).stdout
+    for candidate in RASTERISER_PATHS:
+        shown = subprocess.run(["git", "show", f"{revision}:{candidate}"], cwd=ROOT, capture_output=True, text=True)
+        if shown.returncode == 0:
+            source = shown.stdout
+            break
+    else:
+        raise SystemExit(f"error: revision {revision} has none of {', '.join(RASTERISER_PATHS)}")
     path = Path(tempfile.mkdtemp()) / "baseline_shadow_map.py"
     path.write_text(source)
     spec = importlib.util.spec_from_file_location("baseline_shadow_map", path)
