@@ -23,6 +23,7 @@ PREVIOUS_MATERIAL = "ols_previous_material"       # on an object: its material b
 GENERATED = "ols_generated"                       # on a material: made by the add-on
 SOURCE = "ols_source"                             # on our compositor node: the node it follows ...
 SOURCE_OUTPUT = "ols_source_output"               # ... and that node's output index
+ATMOSPHERE_TARGETS_KEY = "ols_atmosphere_targets"  # on our aerial node: the inputs the render's image fed
 LAYOUT_KEY = "ols_layout"                         # on the light-shaft group: the layout it was built for
 READS_SHADOW_MAPS_KEY = "ols_reads_shadow_maps"   # on the light-shaft group: whether it samples the atlas
 ROWS_KEY = "ols_rows"                             # on the frame-values group: the rows it unpacks

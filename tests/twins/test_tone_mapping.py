@@ -61,9 +61,10 @@ def test_setup_inserts_tone_mapping_and_unwire_restores_the_users_tree(addon_pac
     node = tree.nodes["OLS Tone Mapping"]
     aerial = tree.nodes["OLS Aerial Perspective"]
     shafts = tree.nodes["OLS Light Shafts"]
-    assert output.inputs[0].links[0].from_node == node and node.inputs["Image"].links[0].from_node == shafts
+    assert output.inputs[0].links[0].from_node == node and node.inputs["Image"].links[0].from_node == blur
+    assert blur.inputs["Image"].links[0].from_node == shafts       # the atmosphere before the user's nodes
     assert shafts.inputs["Image"].links[0].from_node == aerial
-    assert aerial.inputs["Image"].links[0].from_node == blur
+    assert aerial.inputs["Image"].links[0].from_node == layers
     assert scene.view_settings.view_transform == "Standard"
     scene.ols.tone_mapping_operator = "REINHARD"
     assert node.inputs["Operator"].default_value == 1.0

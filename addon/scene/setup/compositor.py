@@ -1,6 +1,8 @@
 """The scattering passes (aerial perspective, light shafts) and the tone mapping in the scene's
-compositor, inserted without destroying a tree the user already has: our group node goes onto
-the link that feeds the tree's output, and ``unwire_compositor`` puts that link back. With one of
+compositor, inserted without destroying a tree the user already has. The atmosphere is part of
+the scene's light, so it goes right after the render (between the Render Layers image and the
+user's first nodes: glare, grading); the tone mapping goes last, onto the link that feeds the
+tree's output. ``unwire_compositor`` puts every link back. With one of
 the sample's operators the view transform is set to Standard (so nothing tone maps twice); with
 "Blender View Transform", and on unwire, the user's own is restored.
 
@@ -11,6 +13,7 @@ Settings reach the groups' inputs here (sync_settings); per-frame values (camera
 cascades) go through images, see frame_update."""
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -105,20 +108,60 @@ def linear_output(scene, settings) -> bool:
     return scene.render.image_settings.file_format in EXR_FORMATS and not settings.tone_map_exr
 
 
+def render_image_source(tree, socket):
+    """The Render Layers "Image" output that the chain ending at ``socket`` starts from,
+    following each node's first linked colour input upstream (Glare, Color Balance, a group of
+    the user's...); None when the chain starts elsewhere (an Image node, a mask)."""
+    seen = set()
+    while socket.is_linked:
+        link = socket.links[0]
+        node = link.from_node
+        if node.bl_idname == "CompositorNodeRLayers":
+            return link.from_socket
+        if node.as_pointer() in seen:
+            return None
+        seen.add(node.as_pointer())
+        socket = next((s for s in node.inputs if s.is_linked and s.type == "RGBA"), None)
+        if socket is None:
+            return None
+    return None
+
+
+def atmosphere_targets(tree, aerial, tone):
+    """The inputs the atmosphere feeds: what the render's image fed before Set Up Scene (stored
+    on our aerial node), or the tone mapping's input in trees wired before that was stored."""
+    stored = json.loads(aerial.get(names.ATMOSPHERE_TARGETS_KEY, "[]"))
+    targets = [tree.nodes[name].inputs[index] for name, index in stored
+               if name in tree.nodes and index < len(tree.nodes[name].inputs)]
+    return targets or [tone.inputs["Image"]]
+
+
 def _insert_aerial(scene, tree, tone_node):
-    """Put the aerial-perspective group in front of the tone mapping, fed by the Position and
-    Depth passes of a Render Layers node (ours, so the user's nodes keep their links)."""
+    """Put the aerial-perspective group right after the render: between the Render Layers image
+    the user's chain starts from and everything it fed (so glare, grading and the tone mapping
+    see the scene's light with its atmosphere); fed by the Position and Depth passes of a Render
+    Layers node of ours, so the user's nodes keep their links. A chain that does not start at a
+    render gets the atmosphere just before the tone mapping."""
     aerial = tree.nodes.get(names.AERIAL_NODE)
     if aerial is None:
-        link = tone_node.inputs["Image"].links[0]
+        source = render_image_source(tree, tone_node.inputs["Image"])
+        if source is None:
+            source = tone_node.inputs["Image"].links[0].from_socket
+            targets = [tone_node.inputs["Image"]]
+        else:
+            targets = [link.to_socket for link in source.links]
         aerial = tree.nodes.new("CompositorNodeGroup")
         aerial.node_tree = bpy.data.node_groups[names.AERIAL_GROUP]
         aerial.name = names.AERIAL_NODE
-        aerial.location = (tone_node.location.x - 200, tone_node.location.y)
-        source_socket = link.from_socket
-        tree.links.remove(link)
-        tree.links.new(source_socket, aerial.inputs["Image"])
-        tree.links.new(aerial.outputs["Image"], tone_node.inputs["Image"])
+        aerial.location = (source.node.location.x + 200, source.node.location.y - 250)
+        aerial[names.ATMOSPHERE_TARGETS_KEY] = json.dumps(
+            [[target.node.name, list(target.node.inputs).index(target)] for target in targets])
+        for link in list(source.links):
+            if link.to_socket in targets:
+                tree.links.remove(link)
+        tree.links.new(source, aerial.inputs["Image"])
+        for target in targets:
+            tree.links.new(aerial.outputs["Image"], target)
     layers = tree.nodes.get(names.LAYERS_NODE) or tree.nodes.new("CompositorNodeRLayers")
     layers.name = names.LAYERS_NODE
     layer = scene.view_layers[0]
@@ -131,8 +174,8 @@ def _insert_aerial(scene, tree, tone_node):
 
 
 def link_light_shafts(scene):
-    """Put the light-shaft group between the aerial perspective and the tone mapping, and feed
-    both from "OLS Frame Values" (again after a rebuild changed their sockets)."""
+    """Put the light-shaft group right after the aerial perspective, ahead of what that fed, and
+    feed both from "OLS Frame Values" (again after a rebuild changed their sockets)."""
     tree = scene.compositing_node_group
     aerial, tone = tree.nodes.get(names.AERIAL_NODE), tree.nodes.get(names.TONE_NODE)
     layers = tree.nodes.get(names.LAYERS_NODE)
@@ -143,10 +186,11 @@ def link_light_shafts(scene):
     if shafts is None:
         shafts = tree.nodes.new("CompositorNodeGroup")
         shafts.name = names.SHAFTS_NODE
-        shafts.location = (tone.location.x - 100, tone.location.y - 200)
+        shafts.location = (aerial.location.x + 200, aerial.location.y)
     shafts.node_tree = group
     tree.links.new(aerial.outputs["Image"], shafts.inputs["Image"])
-    tree.links.new(shafts.outputs["Image"], tone.inputs["Image"])
+    for target in atmosphere_targets(tree, aerial, tone):
+        tree.links.new(shafts.outputs["Image"], target)
     tree.links.new(layers.outputs["Position"], shafts.inputs["Position"])
     tree.links.new(layers.outputs["Depth"], shafts.inputs["Depth"])
     if "Surface" in shafts.inputs:      # the epipolar layout makes the whole image from these
@@ -229,15 +273,16 @@ def unwire_compositor(scene):
         tree.nodes.remove(tree.nodes[names.SHAFTS_NODE])
         aerial, tone = tree.nodes.get(names.AERIAL_NODE), tree.nodes.get(names.TONE_NODE)
         if aerial is not None and tone is not None:
-            tree.links.new(aerial.outputs["Image"], tone.inputs["Image"])
+            for target in atmosphere_targets(tree, aerial, tone):
+                tree.links.new(aerial.outputs["Image"], target)
     if tree is not None and not scene.get(names.CREATED_TREE):
-        aerial = tree.nodes.get(names.AERIAL_NODE)
+        aerial, tone = tree.nodes.get(names.AERIAL_NODE), tree.nodes.get(names.TONE_NODE)
         if aerial is not None:
             source = aerial.inputs["Image"].links[0].from_socket if aerial.inputs["Image"].links else None
-            tone = tree.nodes.get(names.TONE_NODE)
+            targets = atmosphere_targets(tree, aerial, tone) if tone is not None else []
             tree.nodes.remove(aerial)
-            if source is not None and tone is not None:
-                tree.links.new(source, tone.inputs["Image"])
+            for target in targets if source is not None else ():
+                tree.links.new(source, target)
         if tree.nodes.get(names.LAYERS_NODE) is not None:
             tree.nodes.remove(tree.nodes[names.LAYERS_NODE])
     if names.PREVIOUS_PASSES in scene:
