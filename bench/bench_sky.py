@@ -3,7 +3,7 @@ scene with Blender's built-in Sky Texture (MULTIPLE_SCATTERING), equal resolutio
 printed side by side with their ratio; and the time to get the default LUT set into Blender
 images (EXR load vs numpy foreach_set).
 
-    .venv/bin/python bench/bench_sky.py [--resolution 480x270] [--samples 16] [--repeats 2]
+    .venv/bin/python bench/bench_sky.py [--resolution 480x270] [--samples 16] [--repeats 3]
 
 Goals: OLS Sky <= 1.5x the Sky Texture; LUT upload < 1 s.
 """
@@ -11,6 +11,7 @@ import argparse
 import importlib
 import math
 import os
+import statistics
 import sys
 import tempfile
 import time
@@ -21,13 +22,15 @@ sys.path.insert(0, str(ROOT / "scripts"))
 
 
 def timed_render(scene, repeats):
+    """Median seconds of ``repeats`` renders, after one that warms caches (BVH, images)."""
     import bpy
-    best = math.inf
-    for _ in range(repeats + 1):            # the first render warms caches (BVH, images)
+    times = []
+    for run in range(repeats + 1):
         start = time.perf_counter()
         bpy.ops.render.render(write_still=False)
-        best = min(best, time.perf_counter() - start)
-    return best
+        if run:
+            times.append(time.perf_counter() - start)
+    return statistics.median(times)
 
 
 def sky_texture_world(scene, sun):
@@ -52,7 +55,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--resolution", default="480x270")
     parser.add_argument("--samples", type=int, default=16)
-    parser.add_argument("--repeats", type=int, default=2)
+    parser.add_argument("--repeats", type=int, default=3, help="timed renders per world; the median counts")
     args = parser.parse_args()
     os.environ.setdefault("OLS_CACHE_DIR", str(Path(tempfile.gettempdir()) / "ols_bench_cache"))
 
@@ -71,7 +74,7 @@ def main():
     batch.apply_options(scene, options)
     assert bpy.ops.ols.setup_scene() == {"FINISHED"}
     sun = sun_mod.find_sun(scene)
-    print(f"Cycles CPU, {os.cpu_count()} cores, {args.resolution}, {args.samples} samples, best of {args.repeats}")
+    print(f"Cycles CPU, {os.cpu_count()} cores, {args.resolution}, {args.samples} samples, median of {args.repeats}")
 
     ols_world = scene.world
     ols_time = timed_render(scene, args.repeats)

@@ -186,8 +186,13 @@ def wire_world(scene, sun, light_scene: float):
         world.use_nodes = True
     group = _group_into_output(world.node_tree, names.SKY_GROUP, "ShaderNodeOutputWorld", "Background")
     group.inputs["Light Scene"].default_value = light_scene
-    # When the world does not light the scene, Cycles need not sample it as a light at all.
-    world.cycles.sampling_method = "AUTOMATIC" if light_scene > 0 else "NONE"
+    # When the world does not light the scene, Cycles need not sample it as a light at all. When
+    # it does, its importance map is sized by hand: AUTOMATIC sizes it from the largest image in
+    # the world, our 4D atlas, and evaluated the world shader for the whole map before every
+    # render (1.5 s of the sample's 6.5 s at 480 x 270). Lighting rays read the panorama, so a
+    # map of its width resolves all there is to sample (the sun is its own lamp).
+    world.cycles.sampling_method = "MANUAL" if light_scene > 0 else "NONE"
+    world.cycles.sample_map_resolution = skylight.SIZE[0]
     for ray in ("diffuse", "scatter", "transmission"):
         setattr(world.cycles_visibility, ray, light_scene > 0)
     drivers.drive_sun_direction(group.inputs["Sun Direction"], sun)
