@@ -16,7 +16,7 @@ import bpy
 
 from ...lut_gen.model import sun_disc
 from .builder import group_io, new_group
-from .optical import ground_radiance, transmittance_to_top
+from .optical import below_horizon, ground_radiance, transmittance_to_top
 from ..scene import names
 
 INPUTS = [
@@ -38,6 +38,31 @@ def limb_darkened_disc(g, cos_sun_view, angle):
     solid_angle = g.math("MAXIMUM", g.mul(g.sub(1.0, g.math("COSINE", radius)), 2 * math.pi), 1e-12)
     per_channel = [g.mul(g.math("POWER", mu, alpha), (alpha + 2.0) / 2.0) for alpha in sun_disc.LIMB_DARKENING_ALPHA]
     return g.vscale(g.combine(*per_channel), g.div(inside, solid_angle))
+
+
+def _background(g, color):
+    node = g.node("ShaderNodeBackground")
+    g.feed(node.inputs["Color"], color)
+    return node.outputs[0]
+
+
+def _only_where(g, weight, shader):
+    """``shader`` where ``weight`` (0 or 1) is 1, no closure where it is 0: Cycles then skips
+    the nodes only ``shader`` needs."""
+    mix = g.node("ShaderNodeMixShader")
+    g.feed(mix.inputs["Fac"], weight)
+    g.links.new(shader, mix.inputs[2])
+    return mix.outputs[0]
+
+
+def _add_shaders(g, *shaders):
+    total = shaders[0]
+    for shader in shaders[1:]:
+        add = g.node("ShaderNodeAddShader")
+        g.links.new(total, add.inputs[0])
+        g.links.new(shader, add.inputs[1])
+        total = add.outputs[0]
+    return total
 
 
 def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, ground_light_image):
@@ -70,8 +95,13 @@ def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, 
     ground = g.vscale(ground_radiance(g, optical_depth_image, ambient_image, height, cos_view, cos_sun,
                                       cos_sun_view, params), strength)
     camera_color = g.vmath("ADD", g.vmath("ADD", sky, disc), ground)
-    camera_view = g.node("ShaderNodeBackground")
-    g.feed(camera_view.inputs["Color"], camera_color)
+    # Camera rays: the sky, plus the disc and the ground each as a closure that only the rays
+    # that see it evaluate (Cycles skips the side of a Mix Shader whose weight is 0; the
+    # ground's term cost 0.17 s and the disc's 0.1 s of the sample's 5 s render otherwise).
+    below = below_horizon(g, g.clamp(height, 0.0, params.atmosphere_height), cos_view, params)
+    on_disc = g.math("GREATER_THAN", cos_sun_view, g.math("COSINE", g.mul(gin.outputs["Sun Angle"], 0.5)))
+    camera_view = _add_shaders(g, _background(g, sky), _only_where(g, on_disc, _background(g, disc)),
+                               _only_where(g, below, _background(g, ground)))
 
     # Other rays: the panorama; diffuse/scatter rays only when "Light Scene" (glossy always).
     azimuth = g.math("ARCTAN2", view_x, view_y)
@@ -91,7 +121,7 @@ def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, 
     mix = g.node("ShaderNodeMixShader")
     g.feed(mix.inputs["Fac"], light_path.outputs["Is Camera Ray"])
     g.links.new(lighting.outputs[0], mix.inputs[1])
-    g.links.new(camera_view.outputs[0], mix.inputs[2])
+    g.links.new(camera_view, mix.inputs[2])
     g.links.new(camera_color, gout.inputs["Color"])
     g.links.new(mix.outputs[0], gout.inputs["Background"])
     return tree
