@@ -111,6 +111,8 @@ def on_frame_change_post(scene, depsgraph=None):
 @persistent
 def on_render_init(scene=None, *_args):
     frame_update.set_rendering(True)
+    if scene is None:
+        return
     problem = wired_bake.table_problem(scene)
     if problem is not None:
         _refuse_damaged_tables(scene, problem)
