@@ -256,7 +256,7 @@ class OLSSettings(bpy.types.PropertyGroup):
     )
     smooth_shadows: BoolProperty(
         name="Smooth Shadows",
-        description=_d("smooth_shadows", "Soften shadow edges by averaging 5 PCF samples"),
+        description=_d("smooth_shadows", "Soften shadow edges by bilinear filtering of 4 shadow-map samples"),
         default=True,
         update=_sync_compositor,
     )

@@ -16,7 +16,7 @@ from .frame_values import build_frame_values_group
 from .inscattering import build_section_group, lookup_group_name, section_group_name
 from .light_shafts import (ShaftLayout,  # noqa: F401 (nodes.ShaftLayout)
                            build_integration_group, build_light_shaft_groups, build_march_chunk_group,
-                           build_shadow_test_group)
+                           build_shadow_test_group, build_shaft_edge_group)
 from .lookup import build_lookup_group
 from .optical import build_segment_transmittance_group
 from .sky import build_sky_group
@@ -57,6 +57,7 @@ GROUPS = (
     Group(names.INTEGRATION_GROUP, build_integration_group, "lut_gen.passes.aerial.integration_terms", _SHAFTS_TEST),
     Group(names.MARCH_CHUNK_GROUP, build_march_chunk_group, "lut_gen.passes.aerial.light_shafts", _SHAFTS_TEST),
     Group(names.MARCH_REST_GROUP, build_march_chunk_group, "lut_gen.passes.aerial.light_shafts", _SHAFTS_TEST),
+    Group(names.SHAFT_EDGE_GROUP, build_shaft_edge_group, "lut_gen.passes.shaft_boundary.refine", _SHAFTS_TEST),
     Group(names.TONE_MAPPING_GROUP, build_tone_mapping_group, "lut_gen.passes.tone_mapping.tone_map",
           "tests/twins/test_tone_mapping.py::test_every_operator_matches_the_sample_formula"),
 )

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ...lut_gen.passes import shadow_map
+from ...lut_gen.passes import shadow_map, shaft_boundary
 from ...lut_gen.passes.shadow_map import MIN_FORWARD_COSINE
 from . import epipolar
 from .aerial import PASS_INPUTS
@@ -137,8 +137,17 @@ def build_shadow_test_group(layout: ShaftLayout, atlas_image, parameter_image):
     block = g.separate(parameter("block", cascade))[0]
     res = atlas_image.size[1]
     width = atlas_image.size[0]
-    column = g.math("FLOOR", g.mul(g.div(g.add(g.sub(x, cx), hx), g.mul(hx, 2.0)), res))
-    row = g.math("FLOOR", g.mul(g.div(g.add(g.sub(y, cy), hy), g.mul(hy, 2.0)), res))
+    # Continuous texel coordinates (texel i spans [i, i + 1)); the taps as
+    # lut_gen.passes.shadow_map.tap_texels: bilinear PCF when smooth, else the texel under the point.
+    texel_x = g.mul(g.div(g.add(g.sub(x, cx), hx), g.mul(hx, 2.0)), res)
+    texel_y = g.mul(g.div(g.add(g.sub(y, cy), hy), g.mul(hy, 2.0)), res)
+    if layout.smooth:
+        u, v = g.sub(texel_x, 0.5), g.sub(texel_y, 0.5)
+        column, row = g.math("FLOOR", u), g.math("FLOOR", v)
+        fx, fy = g.sub(u, column), g.sub(v, row)
+        weights = {0: (g.sub(1.0, fx), g.sub(1.0, fy)), 1: (fx, fy)}
+    else:
+        column, row = g.math("FLOOR", texel_x), g.math("FLOOR", texel_y)
     taps = shadow_map.PCF_OFFSETS if layout.smooth else shadow_map.PCF_OFFSETS[:1]
     lit = 0.0
     for dx, dy in taps:
@@ -147,8 +156,10 @@ def build_shadow_test_group(layout: ShaftLayout, atlas_image, parameter_image):
         u = g.div(g.add(g.mul_add(block, res, c), 0.5), width)
         v = g.div(g.add(r, 0.5), res)
         stored = g.vmath("DOT_PRODUCT", g.image(atlas_image, g.combine(u, v, 1.0), interpolation="Closest"), mask)
-        lit = g.add(lit, g.math("GREATER_THAN", sun_depth, g.sub(stored, bias)))
-    lit = g.div(lit, float(len(taps)))
+        passes = g.math("GREATER_THAN", sun_depth, g.sub(stored, bias))
+        if layout.smooth:
+            passes = g.mul(passes, g.mul(weights[dx][0], weights[dy][1]))
+        lit = g.add(lit, passes)
     tested = g.math("LESS_THAN", index, n - 0.5)
     g.links.new(g.lerp(1.0, lit, tested), gout.inputs["Lit"])
     return tree
@@ -247,7 +258,8 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
         integration = build_integration_group(optical_image, params)
         chunk_trees = {name: build_march_chunk_group(name, count, layout, shadow_test_tree, integration)
                        for name, count in dict(march_chunks(layout.steps)).items()}
-        lit_length, first_lit, integrated = _march(g, gin, direction, length, sun, layout, chunk_trees)
+        edge_tree = build_shaft_edge_group(layout, shadow_test_tree)
+        lit_length, first_lit, integrated = _march(g, gin, direction, length, sun, layout, chunk_trees, edge_tree)
         light, unshadowed = _brute_force_difference(g, camera, end, direction, sun, layout, lit_length, first_lit,
                                                     integrated)
         base = gin.outputs["Image"]
@@ -312,7 +324,13 @@ def _brute_force_difference(g, camera, end, direction, sun, layout: ShaftLayout,
 # chunks of this many steps keep every tree to a few hundred links (about 2 s).
 CHUNK_STEPS = 10
 MARCH_STATE = [("Lit Length", "NodeSocketFloat", 0.0), ("First Lit", "NodeSocketFloat", NEVER),
-               ("Net Density", "NodeSocketVector", (0.0, 0.0, 0.0)), ("Integrated", "NodeSocketVector", (0.0, 0.0, 0.0))]
+               ("Net Density", "NodeSocketVector", (0.0, 0.0, 0.0)), ("Integrated", "NodeSocketVector", (0.0, 0.0, 0.0)),
+               # The first shadow edge (lut_gen.passes.shaft_boundary.first_transition): the first
+               # sample's state (-1 before it), the index of the first sample of the other state
+               # (NEVER while none) and the lit fractions on both sides of it.
+               ("First State", "NodeSocketFloat", -1.0), ("Transition", "NodeSocketFloat", NEVER),
+               ("Lit Before", "NodeSocketFloat", 0.0), ("Lit After", "NodeSocketFloat", 0.0),
+               ("Lit Previous", "NodeSocketFloat", 0.0)]
 
 
 def march_chunks(steps: int):
@@ -346,8 +364,10 @@ def build_march_chunk_group(name: str, count: int, layout: ShaftLayout, shadow_t
         lit = test.outputs["Lit"]
         state["Lit Length"] = g.add(state["Lit Length"], lit)
         unlit = g.math("LESS_THAN", lit, 1e-6)
-        start = g.mul(step, g.add(gin.outputs["First Step"], float(j)))
+        index = g.add(gin.outputs["First Step"], float(j))
+        start = g.mul(step, index)
         state["First Lit"] = g.math("MINIMUM", state["First Lit"], g.mul_add(unlit, NEVER, start))
+        _track_transition(g, state, lit, index)
         if layout.single_mode == "INTEGRATION":
             node = g.node("CompositorNodeGroup")
             node.node_tree = integration
@@ -361,7 +381,51 @@ def build_march_chunk_group(name: str, count: int, layout: ShaftLayout, shadow_t
     return tree
 
 
-def _march(g, gin, direction, length, sun, layout: ShaftLayout, chunk_trees):
+def _track_transition(g, state, lit, index):
+    """One sample's part of shaft_boundary.first_transition, on the march state."""
+    lit_state = g.math("GREATER_THAN", lit, shaft_boundary.HALF - 1e-7)
+    unset = g.math("LESS_THAN", state["First State"], -0.5)
+    state["First State"] = g.select(state["First State"], lit_state, unset)
+    differs = g.math("ABSOLUTE", g.sub(lit_state, state["First State"]))
+    fresh = g.mul(differs, g.math("GREATER_THAN", state["Transition"], 0.5 * NEVER))
+    state["Transition"] = g.select(state["Transition"], index, fresh)
+    state["Lit Before"] = g.select(state["Lit Before"], state["Lit Previous"], fresh)
+    state["Lit After"] = g.select(state["Lit After"], lit, fresh)
+    state["Lit Previous"] = lit
+
+
+EDGE_INPUTS = [("Direction", "NodeSocketVector", (0.0, 1.0, 0.0)), ("Near", "NodeSocketFloat", 0.0),
+               ("Far", "NodeSocketFloat", 1.0), ("Lit Near", "NodeSocketFloat", 0.0), ("Lit Far", "NodeSocketFloat", 1.0)]
+
+
+def build_shaft_edge_group(layout: ShaftLayout, shadow_test_tree):
+    """"OLS Shaft Edge": where between distances Near and Far along the pixel's ray its lit
+    fraction crosses one half, by shaft_boundary.REFINE_ITERATIONS shadow tests of bisection
+    and a linear crossing in the last bracket. Twin: lut_gen.passes.shaft_boundary.refine."""
+    tree = new_group(names.SHAFT_EDGE_GROUP, "CompositorNodeTree")
+    inputs = SHARED_INPUTS + cascade_inputs(layout.cascades) + EDGE_INPUTS
+    g, gin, gout = group_io(tree, inputs, [("Edge", "NodeSocketFloat", None)])
+    camera, direction = gin.outputs["Camera Position"], gin.outputs["Direction"]
+    near, far, lit_near, lit_far = (gin.outputs[name] for name in ("Near", "Far", "Lit Near", "Lit Far"))
+    far_state = g.math("GREATER_THAN", lit_far, shaft_boundary.HALF - 1e-7)
+    for _ in range(shaft_boundary.REFINE_ITERATIONS):
+        middle = g.mul(g.add(near, far), 0.5)
+        test = g.node("CompositorNodeGroup")
+        test.node_tree = shadow_test_tree
+        g.links.new(g.vmath("MULTIPLY_ADD", direction, g.combine(middle, middle, middle), camera), test.inputs["Point"])
+        for socket, *_ in SHARED_INPUTS + cascade_inputs(layout.cascades):
+            g.links.new(gin.outputs[socket], test.inputs[socket])
+        lit_middle = test.outputs["Lit"]
+        middle_state = g.math("GREATER_THAN", lit_middle, shaft_boundary.HALF - 1e-7)
+        like_far = g.sub(1.0, g.math("ABSOLUTE", g.sub(middle_state, far_state)))
+        far, lit_far = g.lerp(far, middle, like_far), g.lerp(lit_far, lit_middle, like_far)
+        near, lit_near = g.lerp(middle, near, like_far), g.lerp(lit_middle, lit_near, like_far)
+    weight = g.clamp(g.div(g.sub(shaft_boundary.HALF, lit_near), g.sub(lit_far, lit_near)), 0.0, 1.0)
+    g.links.new(g.mul_add(g.sub(far, near), weight, near), gout.inputs["Edge"])
+    return tree
+
+
+def _march(g, gin, direction, length, sun, layout: ShaftLayout, chunk_trees, edge_tree):
     """Brute force: (lit length, first lit, integrated or None) from ``layout.steps`` shadow
     tests at the step centres of the pixel's ray, chained through the chunk groups."""
     step = g.div(length, float(layout.steps))
@@ -379,4 +443,14 @@ def _march(g, gin, direction, length, sun, layout: ShaftLayout, chunk_trees):
         first += count
     lit_length = g.mul(state["Lit Length"], step)
     first_lit = g.math("MINIMUM", state["First Lit"], length)
+    # The first shadow edge between its samples, as lut_gen.passes.aerial.light_shafts places it.
+    crossed = g.math("LESS_THAN", state["Transition"], 0.5 * NEVER)
+    k = g.math("MINIMUM", state["Transition"], max(layout.steps - 1, 1))     # finite where none
+    edge = g.group(edge_tree, **{name: gin.outputs[name] for name, *_ in SHARED_INPUTS + cascade_inputs(layout.cascades)},
+                   Direction=direction, Near=g.mul(g.sub(k, 0.5), step), Far=g.mul(g.add(k, 0.5), step),
+                   **{"Lit Near": state["Lit Before"], "Lit Far": state["Lit After"]})["Edge"]
+    shift = g.mul(g.sub(state["Lit Before"], state["Lit After"]), g.sub(edge, g.mul(k, step)))
+    lit_length = g.mul_add(shift, crossed, lit_length)
+    starts_shadowed = g.mul(crossed, g.math("LESS_THAN", state["First State"], 0.5))
+    first_lit = g.select(first_lit, edge, starts_shadowed)
     return lit_length, first_lit, state["Integrated"] if layout.single_mode == "INTEGRATION" else None

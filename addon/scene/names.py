@@ -50,6 +50,7 @@ SHADOW_TEST_GROUP = "OLS Shadow Test"
 INTEGRATION_GROUP = "OLS Integration Step"
 MARCH_CHUNK_GROUP = "OLS March Chunk"
 MARCH_REST_GROUP = "OLS March Rest"
+SHAFT_EDGE_GROUP = "OLS Shaft Edge"
 TONE_MAPPING_GROUP = "OLS Tone Mapping"
 
 # -- the compositor tree and our nodes in it -----------------------------------------------

@@ -22,6 +22,7 @@ from ..tables import parameterization as par
 from ..model.profiles import densities
 from ..model.atmosphere import mie_phase, rayleigh_phase
 from ..tables.lookup import Luts
+from . import shaft_boundary
 
 SINGLE_MODES = ("NONE", "INTEGRATION", "LUT")
 MULTIPLE_MODES = ("NONE", "OCCLUDED", "UNOCCLUDED")
@@ -128,8 +129,10 @@ def light_shafts(luts: Luts, camera, end, sun_direction, is_lit, steps: int = 32
     """(..., 3) in-scattering along camera -> end with sun shadows, per unit sun.
 
     ``is_lit(points) -> array`` tells how much of the sun reaches world points (the shadow
-    map: 0 or 1, or fractions with PCF). The march takes ``steps`` samples at step centres and finds the lit length and the
-    distance to the first lit sample (the sample's D_lit, D_start), then applies the modes.
+    map: 0 or 1, or fractions with PCF). The march takes ``steps`` samples at step centres and
+    finds the lit length and the distance to the first lit sample (the sample's D_lit,
+    D_start), its first shadow edge refined between samples (lut_gen.passes.shaft_boundary),
+    then applies the modes.
     """
     check_modes(single_mode, multiple_mode)
     camera = np.asarray(camera, float)
@@ -146,6 +149,12 @@ def light_shafts(luts: Luts, camera, end, sun_direction, is_lit, steps: int = 32
     lit_length = lit.sum(axis=-1) * step
     any_light = lit > 0.0
     first_lit = np.where(any_light.any(axis=-1), np.argmax(any_light, axis=-1) * step, length)
+    # The first shadow edge, placed between its two samples (lut_gen.passes.shaft_boundary).
+    k, before, after = shaft_boundary.first_transition(lit)
+    crossed = k < steps
+    edge = shaft_boundary.refine(is_lit, camera, direction, (k - 0.5) * step, (k + 0.5) * step, before, after)
+    lit_length = lit_length + np.where(crossed, (before - after) * (edge - k * step), 0.0)
+    first_lit = np.where(crossed & (lit[..., 0] < shaft_boundary.HALF), edge, first_lit)
     integrated = None
     if single_mode == "INTEGRATION":
         integrated = np.sum(integration_terms(luts, camera, direction, samples, step[..., None], sun) * lit[..., None],

@@ -26,7 +26,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from . import aerial, min_max, render_detail
+from . import aerial, min_max, render_detail, shaft_boundary
 from .shadow_map import MIN_FORWARD_COSINE, Camera, ShadowCascades, visibility
 
 MIN_NEAR = 10.0                 # m: the distance grid is geometric from here (1 m: 4 dB worse on the sample)
@@ -229,16 +229,29 @@ def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Ca
     centres = 0.5 * (t[1:] + t[:-1])
     lengths = np.diff(t)
     points = camera.position + directions[:, None, :] * centres[None, :, None]         # (n, K-1, 3)
-    if maps is not None:
-        lit = min_max.visibility(cascades, maps, points, camera, best_search, first_cascade)
-    else:
-        lit = visibility(cascades, points, camera, smooth, best_search, first_cascade)
+
+    def is_lit(at):
+        if maps is not None:
+            return min_max.visibility(cascades, maps, at, camera, best_search, first_cascade)
+        return visibility(cascades, at, camera, smooth, best_search, first_cascade)
+
+    lit = is_lit(points)
     zero = np.zeros((len(directions), 1))
     lit_length = np.concatenate([zero, np.cumsum(lit * lengths, axis=-1)], axis=-1)
     # F(t): the start of the first interval with light among those before t, else t itself.
     starts = np.where(lit > 0.0, t[None, :-1], np.inf)
     first = np.minimum.accumulate(starts, axis=-1)
     first_lit = np.minimum(np.concatenate([zero + np.inf, first], axis=-1), t[None, :])
+    # The first shadow edge between its two samples, as the brute-force march places it
+    # (lut_gen.passes.shaft_boundary): intervals j - 1 and j meet at t[j].
+    j, before, after = shaft_boundary.first_transition(lit)
+    crossed = (j < len(centres))[:, None]
+    safe = np.clip(j, 1, len(centres) - 1)
+    edge = shaft_boundary.refine(is_lit, camera.position, directions, centres[safe - 1], centres[safe], before, after)
+    edge, boundary = edge[:, None], t[safe][:, None]
+    lit_length = lit_length + np.where(crossed, (before - after)[:, None] * (np.minimum(t, edge) - np.minimum(t, boundary)), 0.0)
+    starts_shadowed = crossed & (lit[:, :1] < shaft_boundary.HALF)
+    first_lit = np.where(starts_shadowed, np.minimum(t[None, :], edge), first_lit)
     integrated = None
     if integrate:
         sun = frame.sun

@@ -3,9 +3,9 @@ are surely lit or surely in shadow (the epipolar technique's "1D min/max optimiz
 2D because the table rays are marched in world space). The answer is exactly
 shadow_map.visibility's; only the work differs.
 
-Per cascade, the stored sun depths are max- and min-filtered over the PCF footprint (the texel
-and its four neighbours, clamped at the edges like the taps) and reduced over BLOCK x BLOCK
-texel blocks. A point at or above its block's largest depth (minus the bias) passes every tap;
+Per cascade, the stored sun depths are max- and min-filtered over the PCF footprint (the 3 x 3
+texels around a point's texel hold its bilinear taps; clamped at the edges like the taps) and
+reduced over BLOCK x BLOCK texel blocks. A point at or above its block's largest depth (minus the bias) passes every tap;
 one below its block's smallest fails every tap. Only the rest are tested tap by tap.
 """
 from __future__ import annotations
@@ -35,8 +35,7 @@ def build(cascades: ShadowCascades, smooth: bool) -> MinMaxMaps:
 def _block_reduce(depths, combine, dilate: bool) -> np.ndarray:
     """(cascades, blocks, blocks) ``combine`` (np.maximum or np.minimum) of the depths of each
     BLOCK x BLOCK block, with ``dilate`` also of the texels bordering it: a square that holds
-    every PCF tap of the block's texels (the cross of taps would do; the square only leaves a
-    few more points to the exact test). Reduces over reshaped views (a padded copy only where
+    every bilinear PCF tap of the block's points. Reduces over reshaped views (a padded copy only where
     the resolution is not a multiple of BLOCK): the whole-map copies and pads this replaced cost
     5.9 s at 6 cascades of 4096, 0.35 s at 1024."""
     n, res = depths.shape[:2]
@@ -58,12 +57,13 @@ def _block_reduce(depths, combine, dilate: bool) -> np.ndarray:
 def visibility(cascades: ShadowCascades, maps: MinMaxMaps, points, camera: Camera, best_search: bool = True,
                first_cascade: int = 0) -> np.ndarray:
     """shadow_map.visibility (with PCF as ``maps`` was built), skipping decided points' taps."""
-    tested, cascade, row, column, depth, bias = locate(cascades, points, camera, best_search, first_cascade)
+    tested, cascade, y, x, depth, bias = locate(cascades, points, camera, best_search, first_cascade)
     res = cascades.resolution
+    row, column = np.floor(y).astype(np.int64), np.floor(x).astype(np.int64)
     block_row, block_column = np.clip(row, 0, res - 1) // BLOCK, np.clip(column, 0, res - 1) // BLOCK
     lit = np.where(depth >= maps.high[cascade, block_row, block_column] - bias, 1.0, 0.0)
     undecided = tested & (depth >= maps.low[cascade, block_row, block_column] - bias) & (lit == 0.0)
     if undecided.any():
-        lit[undecided] = tap_fraction(cascades, cascade[undecided], row[undecided], column[undecided],
+        lit[undecided] = tap_fraction(cascades, cascade[undecided], y[undecided], x[undecided],
                                       depth[undecided], bias[undecided], maps.smooth)
     return np.where(tested, lit, 1.0)

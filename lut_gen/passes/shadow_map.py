@@ -260,15 +260,22 @@ def select_cascade(cascades: ShadowCascades, light_xy, view_depth, best_search: 
     return np.where(covered, index, cascades.count)
 
 
-PCF_OFFSETS = np.array([(0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)])
+# Smooth shadows: bilinear percentage-closer filtering, the four texels around the point's
+# position compared and weighted by its offset from their centres (as hardware PCF does). The
+# lit fraction is then continuous in the point's position, which the shaft boundary's
+# refinement (lut_gen.passes.shaft_boundary) needs to place a shadow's edge between march
+# samples: the five-tap cross it replaced answered in fifths, which drew texel-sized blocks
+# into the darkened sky (issue 25). Without smoothing one tap: the texel under the point.
+PCF_OFFSETS = np.array([(0, 0), (1, 0), (0, 1), (1, 1)])
 
 
 def locate(cascades: ShadowCascades, points, camera: Camera, best_search: bool = True, first_cascade: int = 0):
-    """Where world points (...) are tested: (tested mask, cascade index, texel row, texel
-    column, sun depth, depth bias). Untested points (outside every cascade) are lit. As the
-    sample's "First cascade to ray march", cascades below ``first_cascade`` are skipped: their
-    points are tested in that (larger, nested) cascade instead. Rows and columns are clamped to
-    [-1, res], which leaves every tap's clamped texel as it was."""
+    """Where world points (...) are tested: (tested mask, cascade index, texel y, texel x, sun
+    depth, depth bias), with x and y continuous texel coordinates (texel i spans [i, i + 1)).
+    Untested points (outside every cascade) are lit. As the sample's "First cascade to ray
+    march", cascades below ``first_cascade`` are skipped: their points are tested in that
+    (larger, nested) cascade instead. Coordinates are clamped to [-1, res + 1], which leaves
+    every tap's clamped texel as it was."""
     points = np.asarray(points, dtype=np.float64)
     light = points @ cascades.frame.T
     view_depth = (points - camera.position) @ camera.forward
@@ -278,28 +285,40 @@ def locate(cascades: ShadowCascades, points, camera: Camera, best_search: bool =
     origin = cascades.centers[safe] - cascades.halves[safe]
     texel = cascades.texel_sizes()[safe]
     res = cascades.resolution
-    column = np.clip(np.floor((light[..., 0] - origin[..., 0]) / texel[..., 0]), -1, res).astype(np.int64)
-    row = np.clip(np.floor((light[..., 1] - origin[..., 1]) / texel[..., 1]), -1, res).astype(np.int64)
-    return index < cascades.count, safe, row, column, light[..., 2], cascades.biases()[safe]
+    x = np.clip((light[..., 0] - origin[..., 0]) / texel[..., 0], -1.0, res + 1.0)
+    y = np.clip((light[..., 1] - origin[..., 1]) / texel[..., 1], -1.0, res + 1.0)
+    return index < cascades.count, safe, y, x, light[..., 2], cascades.biases()[safe]
 
 
-def tap_fraction(cascades: ShadowCascades, cascade, row, column, depth, bias, smooth: bool) -> np.ndarray:
-    """Fraction of the PCF taps (5 when ``smooth``, else 1) that a point passes."""
+def tap_texels(x, y, smooth: bool):
+    """[(row, column, weight)] of the PCF taps at continuous texel coordinates (x, y): the
+    four texels around (x, y) with bilinear weights when ``smooth``, else the texel under it."""
+    if not smooth:
+        return [(np.floor(y).astype(np.int64), np.floor(x).astype(np.int64), 1.0)]
+    u, v = np.asarray(x) - 0.5, np.asarray(y) - 0.5          # texel centres at integers
+    column, row = np.floor(u), np.floor(v)
+    fx, fy = u - column, v - row
+    column, row = column.astype(np.int64), row.astype(np.int64)
+    return [(row + dy, column + dx, (fx if dx else 1.0 - fx) * (fy if dy else 1.0 - fy)) for dx, dy in PCF_OFFSETS]
+
+
+def tap_fraction(cascades: ShadowCascades, cascade, y, x, depth, bias, smooth: bool) -> np.ndarray:
+    """Fraction of the sun a point at texel coordinates (x, y) of ``cascade`` passes: 0 or 1
+    from one tap, or the bilinear weight of the four taps it passes when ``smooth``."""
     res = cascades.resolution
-    offsets = PCF_OFFSETS if smooth else PCF_OFFSETS[:1]
     lit = np.zeros(np.shape(depth))
-    for dx, dy in offsets:
-        stored = cascades.depths[cascade, np.clip(row + dy, 0, res - 1), np.clip(column + dx, 0, res - 1)]
-        lit += depth >= stored - bias
-    return lit / len(offsets)
+    for row, column, weight in tap_texels(x, y, smooth):
+        stored = cascades.depths[cascade, np.clip(row, 0, res - 1), np.clip(column, 0, res - 1)]
+        lit += weight * (depth >= stored - bias)
+    return lit
 
 
 def visibility(cascades: ShadowCascades, points, camera: Camera, smooth: bool = False,
                best_search: bool = True, first_cascade: int = 0) -> np.ndarray:
-    """Fraction of the sun visible from world points (...): 1 lit, 0 in shadow; the average of
-    5 PCF taps when ``smooth``. Points outside every cascade are lit (see ``locate``)."""
-    tested, cascade, row, column, depth, bias = locate(cascades, points, camera, best_search, first_cascade)
-    return np.where(tested, tap_fraction(cascades, cascade, row, column, depth, bias, smooth), 1.0)
+    """Fraction of the sun visible from world points (...): 1 lit, 0 in shadow; bilinear PCF
+    fractions when ``smooth``. Points outside every cascade are lit (see ``locate``)."""
+    tested, cascade, y, x, depth, bias = locate(cascades, points, camera, best_search, first_cascade)
+    return np.where(tested, tap_fraction(cascades, cascade, y, x, depth, bias, smooth), 1.0)
 
 
 # -- packing for the compositor -----------------------------------------------------------------

@@ -203,7 +203,8 @@ def test_min_max_maps_give_the_same_shadow_test(smooth, resolution):
     want = shadow_map.visibility(scene.cascades, points, scene.camera, smooth, True, 1)
     got = min_max.visibility(scene.cascades, min_max.build(scene.cascades, smooth), points, scene.camera, True, 1)
     assert 0.05 < want.mean() < 0.95
-    np.testing.assert_array_equal(got, want)
+    # The same taps and weights; the bilinear weights' products may round in another order.
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
 
 
 def test_min_max_optimization_changes_speed_not_the_picture(draft_luts):
