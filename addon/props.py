@@ -10,9 +10,10 @@ How the render reads them (clamped, capped, mapped to table parameters) is setti
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty
 
+from ..lut_gen.clouds.layer import RANGES as CLOUD_RANGES
 from ..lut_gen.model.atmosphere import DEFAULT_GROUND_ALBEDO
 from . import baking
-from .scene import names
+from .scene import clouds, names
 from .scene.setup import compositor
 from .settings import DEFAULT_MIE_COLOR, DEFAULT_RAYLEIGH_COLOR, WITHOUT_EFFECT
 
@@ -38,6 +39,12 @@ def _sync_compositor(settings, context):
     them ten times, ~1 s each."""
     if context.scene is not None:
         compositor.sync_settings(context.scene)
+
+
+def _sync_clouds(settings, context):
+    """The cloud map follows the seed (0.9 s to make), and the world its on/off switch."""
+    if context.scene is not None:
+        clouds.sync(context.scene)
 
 
 def _capture_day_range(settings, context):
@@ -67,6 +74,7 @@ class OLSSettings(bpy.types.PropertyGroup):
             ("BASIC", "Basic", "Light scattering, epipolar sampling and shadow map controls"),
             ("ADDITIONAL", "Additional", "Scattering modes, shadow cascades and atmosphere media"),
             ("TONE_MAPPING", "Tone Mapping", "HDR to LDR conversion controls"),
+            ("CLOUDS", "Clouds", "A cloud layer in the sky, lit by the sun through the atmosphere"),
         ),
         default="BASIC",
     )
@@ -449,6 +457,49 @@ class OLSSettings(bpy.types.PropertyGroup):
                     "scene-linear radiance with the atmosphere applied, as any Blender render",
         default=False,
         update=_sync_compositor,
+    )
+
+
+    # -- clouds -----------------------------------------------------------------------------
+    clouds_enabled: BoolProperty(
+        name="Clouds",
+        description="A cloud layer in the sky: lit by the sun through the atmosphere and by the sky, "
+                    "hazed by the air in front of it (world shader; Set Up Scene makes the images)",
+        default=False,
+        update=_sync_clouds,
+    )
+    cloud_coverage: FloatProperty(
+        name="Coverage", description="Fraction of the sky the clouds cover (0: clear, 1: overcast)",
+        default=CLOUD_RANGES["coverage"][0], min=0.0, max=1.0, subtype="FACTOR",
+    )
+    cloud_base: FloatProperty(
+        name="Base", description="Height of the cloud base above the ground",
+        default=CLOUD_RANGES["base"][0], min=CLOUD_RANGES["base"][1], max=CLOUD_RANGES["base"][2], unit="LENGTH",
+    )
+    cloud_thickness: FloatProperty(
+        name="Thickness", description="Thickness of a full cloud (thinner at its edges)",
+        default=CLOUD_RANGES["thickness"][0], min=CLOUD_RANGES["thickness"][1], max=CLOUD_RANGES["thickness"][2],
+        unit="LENGTH",
+    )
+    cloud_density: FloatProperty(
+        name="Density",
+        description="Extinction inside a cloud, per metre (0.033: optical depth 20 through 600 m, "
+                    "a stratocumulus or fair-weather cumulus)",
+        default=CLOUD_RANGES["density"][0], min=CLOUD_RANGES["density"][1], max=CLOUD_RANGES["density"][2],
+        precision=4, step=0.1,
+    )
+    cloud_scale: FloatProperty(
+        name="Scale", description="Size of the cloud features",
+        default=CLOUD_RANGES["scale"][0], min=CLOUD_RANGES["scale"][1], max=CLOUD_RANGES["scale"][2], unit="LENGTH",
+    )
+    cloud_seed: IntProperty(
+        name="Seed", description="Which cloud field: every seed is another sky of the same coverage",
+        default=0, min=0, max=1_000_000,
+        update=_sync_clouds,
+    )
+    cloud_offset: FloatVectorProperty(
+        name="Offset", description="Shift of the cloud field (x, y): keyframe it for wind",
+        size=2, default=(0.0, 0.0), unit="LENGTH",
     )
 
 

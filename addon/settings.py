@@ -12,7 +12,7 @@ import numpy as np
 from ..lut_gen.model.atmosphere import DEFAULT_RAYLEIGH_SCATTERING, AtmosphereParams, preset
 from ..lut_gen.passes import render_detail
 
-CONTROL_SETS = ("BASIC", "ADDITIONAL", "TONE_MAPPING")
+CONTROL_SETS = ("BASIC", "ADDITIONAL", "TONE_MAPPING", "CLOUDS")
 
 # The controls of each set, in the sample's panel order.
 PROPERTIES_BY_SET = {
@@ -66,6 +66,16 @@ PROPERTIES_BY_SET = {
         "tone_mapping_operator",
         "light_adaptation",
         "tone_map_exr",
+    ],
+    "CLOUDS": [
+        "clouds_enabled",
+        "cloud_coverage",
+        "cloud_base",
+        "cloud_thickness",
+        "cloud_density",
+        "cloud_scale",
+        "cloud_seed",
+        "cloud_offset",
     ],
 }
 

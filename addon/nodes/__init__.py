@@ -12,6 +12,7 @@ from typing import Callable
 from ..scene import names
 from . import epipolar, frame_values, lookup  # noqa: F401 (their helpers are used as nodes.<module>.<name>)
 from .aerial import build_aerial_group
+from .clouds import build_cloud_group
 from .frame_values import build_frame_values_group
 from .inscattering import build_section_group, lookup_group_name, section_group_name
 from .light_shafts import (ShaftLayout,  # noqa: F401 (nodes.ShaftLayout)
@@ -37,6 +38,7 @@ class Group:
 _AERIAL_TEST = "tests/twins/test_aerial_pass.py::test_aerial_perspective_pass_matches_twin"
 _SHAFTS_TEST = "tests/twins/test_light_shafts_pass.py::test_every_scattering_mode_matches_the_twin_and_shafts_show"
 _SKY_TEST = "tests/twins/test_sky_group.py::test_sky_render_matches_numpy_twin"
+_CLOUDS_TEST = "tests/twins/test_cloud_sky.py::test_cloudy_sky_render_matches_numpy_twin"
 
 GROUPS = (
     Group(names.LOOKUP_GROUP, build_lookup_group, "lut_gen.tables.lookup.Luts.sky_radiance", _SKY_TEST),
@@ -47,6 +49,7 @@ GROUPS = (
     Group(names.SEGMENT_GROUP, build_segment_transmittance_group, "lut_gen.passes.aerial.segment_transmittance",
           "tests/twins/test_aerial_pass.py::test_segment_transmittance_just_below_the_horizon_matches_twin"),
     Group(names.SKY_GROUP, build_sky_group, "lut_gen.tables.lookup.Luts.sky_radiance", _SKY_TEST),
+    Group(names.CLOUDS_GROUP, build_cloud_group, "lut_gen.clouds.sky.view", _CLOUDS_TEST),
     Group(names.TERRAIN_GROUP, build_terrain_group, "lut_gen.passes.terrain.terrain_radiance",
           "tests/twins/test_terrain_group.py::test_terrain_group_matches_numpy_twin"),
     Group(names.AERIAL_GROUP, build_aerial_group, "lut_gen.passes.aerial.aerial_perspective", _AERIAL_TEST),

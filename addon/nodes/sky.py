@@ -16,8 +16,12 @@ import bpy
 
 from ...lut_gen.model import sun_disc
 from .builder import group_io, new_group
+from .clouds import INPUTS as _CLOUD_GROUP_INPUTS
 from .optical import below_horizon, ground_radiance, transmittance_to_top
 from ..scene import names
+
+# The cloud group's settings, fed through as "Cloud <name>" inputs of the sky group.
+CLOUD_INPUTS = [item for item in _CLOUD_GROUP_INPUTS if item[0] not in {"View", "Sun Direction", "Camera Height"}]
 
 INPUTS = [
     ("Sun Direction", "NodeSocketVector", (0.0, 0.0, 1.0)),   # unit vector toward the sun
@@ -26,6 +30,8 @@ INPUTS = [
     ("Scattering Scale", "NodeSocketFloat", 0.5),             # the sample's scattering scale
     ("Sun Angle", "NodeSocketFloat", math.radians(0.545)),    # apparent diameter (lamp's Angle)
     ("Light Scene", "NodeSocketFloat", 1.0),                  # 0: sky seen by camera/glossy rays only
+    ("Clouds", "NodeSocketFloat", 0.0),                       # 1: the cloud layer is on
+    *[(f"Cloud {name}", kind, default) for name, kind, default in CLOUD_INPUTS],
 ]
 
 
@@ -65,7 +71,23 @@ def _add_shaders(g, *shaders):
     return total
 
 
-def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, ground_light_image):
+def _cloudy(g, gin, clouds_tree, view, sun, height, sky, disc, ground, strength, sky_scale):
+    """(sky, disc, ground) with the cloud layer: lut_gen.clouds.sky.composite, and what lies
+    behind a cloud (the disc; the ground, seen from above the layer) dimmed by it."""
+    node = g.node("ShaderNodeGroup")
+    node.node_tree = clouds_tree
+    g.feed(node.inputs["View"], view)
+    g.feed(node.inputs["Sun Direction"], sun)
+    g.feed(node.inputs["Camera Height"], height)
+    for name, _, _ in CLOUD_INPUTS:
+        g.feed(node.inputs[name], gin.outputs[f"Cloud {name}"])
+    alpha, light, air, behind = (node.outputs[name] for name in ("Alpha", "Light", "Air", "Sky Behind"))
+    cloud_light = g.vmath("SUBTRACT", g.vscale(light, strength), g.vscale(behind, g.mul(alpha, sky_scale)))
+    clear = g.sub(1.0, alpha)
+    return (g.vmath("MULTIPLY_ADD", air, cloud_light, sky), g.vscale(disc, clear), g.vscale(ground, clear))
+
+
+def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, ground_light_image, clouds_tree=None):
     """``skylight_image`` and ``ground_light_image``: the sky and the lit ground for the current
     sun and camera height as equirectangular panoramas (scene/frame/skylight.py keeps them current).
     Camera rays evaluate the exact 4D look-up and ground term; every other ray (lighting,
@@ -102,6 +124,15 @@ def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, 
     on_disc = g.math("GREATER_THAN", cos_sun_view, g.math("COSINE", g.mul(gin.outputs["Sun Angle"], 0.5)))
     camera_view = _add_shaders(g, _background(g, sky), _only_where(g, on_disc, _background(g, disc)),
                                _only_where(g, below, _background(g, ground)))
+    if clouds_tree is not None:
+        # Clouds off: the clear closure alone, and Cycles skips every cloud node.
+        on = g.clamp(gin.outputs["Clouds"], 0.0, 1.0)
+        cloudy_sky, cloudy_disc, cloudy_ground = _cloudy(g, gin, clouds_tree, view, sun, height, sky, disc, ground,
+                                                         strength, sky_scale)
+        cloudy_view = _add_shaders(g, _background(g, cloudy_sky),
+                                   _only_where(g, on_disc, _background(g, cloudy_disc)),
+                                   _only_where(g, below, _background(g, cloudy_ground)))
+        camera_view = _add_shaders(g, _only_where(g, g.sub(1.0, on), camera_view), _only_where(g, on, cloudy_view))
 
     # Other rays: the panorama; diffuse/scatter rays only when "Light Scene" (glossy always).
     azimuth = g.math("ARCTAN2", view_x, view_y)

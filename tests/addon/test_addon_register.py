@@ -86,9 +86,9 @@ def test_every_control_is_a_property(addon_package):
     assert len(names) == len(set(names))
     for name in ["control_set", *names]:
         assert name in rna, name
-    assert set(settings.PROPERTIES_BY_SET) == {"BASIC", "ADDITIONAL", "TONE_MAPPING"}
+    assert set(settings.PROPERTIES_BY_SET) == {"BASIC", "ADDITIONAL", "TONE_MAPPING", "CLOUDS"}
     assert [item.identifier for item in rna["control_set"].enum_items] == [
-        "BASIC", "ADDITIONAL", "TONE_MAPPING"]
+        "BASIC", "ADDITIONAL", "TONE_MAPPING", "CLOUDS"]
     assert set(settings.WITHOUT_EFFECT) <= set(names)
     assert set(names) - set(settings.WITHOUT_EFFECT) == {
         "scattering_scale", "use_custom_scattering_coeffs", "rayleigh_color", "mie_color",
@@ -100,7 +100,8 @@ def test_every_control_is_a_property(addon_package):
         "num_cascades", "show_cascades", "smooth_shadows", "best_cascade_search", "cascade_partitioning_factor",
         "first_cascade_to_ray_march", "scattering_technique", "epipolar_slices", "samples_per_slice",
         "initial_sample_step", "epipole_sampling_density", "refinement_threshold", "show_sampling",
-        "use_min_max_optimization"}
+        "use_min_max_optimization", "clouds_enabled", "cloud_coverage", "cloud_base", "cloud_thickness",
+        "cloud_density", "cloud_scale", "cloud_seed", "cloud_offset"}
     notes = set(settings.WITHOUT_EFFECT.values())
     for name in names:
         description = rna[name].description
@@ -282,8 +283,9 @@ def test_panel(scene, addon_package):
         assert [entry[1] for entry in drawn[1:]] == names
         for _, name, active, enabled in drawn[1:]:
             assert active == (name not in settings.WITHOUT_EFFECT), name
-            if name in ("rayleigh_color", "mie_color", "day_start_frame", "day_end_frame"):
-                assert enabled is False  # custom coefficients and Animate Sun are off by default
+            if name in ("rayleigh_color", "mie_color", "day_start_frame", "day_end_frame") or (
+                    name.startswith("cloud_")):
+                assert enabled is False  # custom coefficients, Animate Sun and clouds are off by default
             else:
                 assert enabled is True, name
         notes = [e for e in log if e[0] == "label" and "tooltips say why" in e[1]]

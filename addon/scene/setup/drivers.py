@@ -44,6 +44,16 @@ def drive_scene_setting(socket, scene, name: str):
     _drive(socket, None, scene, f"ols.{name}", id_type="SCENE", expression=expression)
 
 
+def drive_switch(socket, scene, name: str):
+    """A boolean control as 1.0 / 0.0."""
+    _drive(socket, None, scene, f"ols.{name}", id_type="SCENE", expression="1.0 if v else 0.0")
+
+
+def drive_vector_setting(socket, index, scene, name: str):
+    """One component of a vector control; a NaN component (v != v) reads as 0."""
+    _drive(socket, index, scene, f"ols.{name}[{index}]", id_type="SCENE", expression="v if v == v else 0.0")
+
+
 def remove_drivers(tree):
     if tree is not None and tree.animation_data is not None:
         for curve in list(tree.animation_data.drivers):

@@ -18,7 +18,7 @@ from . import compositor, drivers
 from ..frame import epipolar_tables, frame_update, shadow_maps, skylight
 from ..tables import luts, wired_bake
 from .. import sun as sun_lamps
-from .. import names
+from .. import clouds, names
 
 
 class SetupError(Exception):
@@ -39,10 +39,13 @@ def build_groups(bake_dir, engine="CYCLES"):
     (images, atmosphere params)."""
     images = luts.load_images(bake_dir)
     params, dims = lut_gen.store.exr_io.read_header_params(bake_dir)
-    nodes.build_lookup_group(images["multiple"], dims, params, nodes.lookup.filtering_for_engine(engine),
-                             mie_image=images["single_mie"])
+    lookup = nodes.build_lookup_group(images["multiple"], dims, params, nodes.lookup.filtering_for_engine(engine),
+                                      mie_image=images["single_mie"])
+    cloud_tree = nodes.build_cloud_group(clouds.ensure_map_image(clouds.seed_of(bpy.context.scene)),
+                                         clouds.ensure_table_image(), images["optical_depth"], images["ambient"],
+                                         params, lookup)
     nodes.build_sky_group(images["optical_depth"], params, skylight.ensure_image(), images["ambient"],
-                          skylight.ensure_ground_image())
+                          skylight.ensure_ground_image(), clouds_tree=cloud_tree)
     nodes.build_terrain_group(images["optical_depth"], images["ambient"], params)
     for table in nodes.COMPOSITOR_TABLES:
         nodes.build_lookup_group(images[table], dims, params, compositor=True, name=nodes.lookup_group_name(table),
@@ -200,6 +203,7 @@ def wire_world(scene, sun, light_scene: float):
     drivers.drive_from_lamp(group.inputs["Sun Angle"], sun, "angle")
     drivers.drive_camera_height(group.inputs["Camera Height"], scene)
     drivers.drive_scene_setting(group.inputs["Scattering Scale"], scene, "scattering_scale")
+    clouds.drive_sky_inputs(group, scene)
     return world
 
 

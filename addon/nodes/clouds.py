@@ -1,0 +1,195 @@
+""""OLS Clouds": what a view ray of the world sees of the cloud layer. Twin:
+lut_gen.clouds.sky.view (the formulas and their reasons are there); the sky group composites
+it (addon/nodes/sky.py). It reads the same cloud map and higher-orders table images the numpy
+code reads, so the twin is exact up to float32.
+
+Outputs: Alpha (the share of the light behind the cloud it hides), Light (the cloud's own
+light per unit sun), Air (transmittance camera -> cloud), Sky Behind (the sky's radiance from
+the cloud on, per unit sun, from the 4D table).
+"""
+from __future__ import annotations
+
+import math
+
+from ...lut_gen.clouds import field, slab
+from ..scene import names
+from .builder import group_io, new_group
+from .optical import ambient_skylight, below_horizon, segment_transmittance, transmittance_to_top
+
+INPUTS = [
+    ("View", "NodeSocketVector", (0.0, 0.0, 1.0)),            # unit direction of the ray
+    ("Sun Direction", "NodeSocketVector", (0.0, 0.0, 1.0)),
+    ("Camera Height", "NodeSocketFloat", 2.0),
+    ("Coverage", "NodeSocketFloat", 0.4),
+    ("Base", "NodeSocketFloat", 1500.0),
+    ("Thickness", "NodeSocketFloat", 600.0),
+    ("Density", "NodeSocketFloat", 20.0 / 600.0),
+    ("Scale", "NodeSocketFloat", 2000.0),
+    ("Offset", "NodeSocketVector", (0.0, 0.0, 0.0)),
+]
+OUTPUTS = [("Alpha", "NodeSocketFloat", None), ("Light", "NodeSocketVector", None),
+           ("Air", "NodeSocketVector", None), ("Sky Behind", "NodeSocketVector", None)]
+
+
+def _phase(g, cos_theta):
+    """lut_gen.clouds.slab.phase."""
+    total = 0.0
+    for weight, asym in slab.PHASE_LOBES:
+        base = g.mul_add(cos_theta, -2.0 * asym, 1.0 + asym * asym)
+        lobe = g.div(weight * (1.0 - asym * asym) / (4.0 * math.pi), g.math("POWER", g.math("MAXIMUM", base, 1e-9), 1.5))
+        total = lobe if isinstance(total, float) else g.add(total, lobe)
+    return total
+
+
+def _exp_ratio(g, a, b):
+    """slab._exp_ratio: exp(-min(a, b)) (1 - exp(-d)) / d, d = |b - a|, its series for small d."""
+    d = g.math("ABSOLUTE", g.sub(b, a))
+    small = g.math("LESS_THAN", d, slab.SERIES_BELOW)
+    series = g.mul_add(d, g.mul_add(d, 1.0 / 6.0, -0.5), 1.0)
+    safe = g.select(d, 1.0, small)
+    exact = g.div(g.sub(1.0, g.math("EXPONENT", g.mul(safe, -1.0))), safe)
+    return g.mul(g.math("EXPONENT", g.mul(g.math("MINIMUM", a, b), -1.0)), g.select(exact, series, small))
+
+
+def _single_scattering(g, tau, mu_s, mu_v, cos_sun_view, reflected):
+    """slab.single_scattering, the transmitted or the reflected form by ``reflected``."""
+    p = _phase(g, cos_sun_view)
+    through = g.mul(g.div(g.mul(p, tau), mu_v), _exp_ratio(g, g.div(tau, mu_v), g.div(tau, mu_s)))
+    inverse_sum = g.add(g.div(1.0, mu_s), g.div(1.0, mu_v))
+    back = g.mul(g.div(g.mul(p, mu_s), g.add(mu_s, mu_v)),
+                 g.sub(1.0, g.math("EXPONENT", g.mul(g.mul(tau, inverse_sum), -1.0))))
+    return g.select(through, back, reflected)
+
+
+def _two_stream(g, tau, mu_s):
+    """slab.two_stream: (reflected, diffusely transmitted) flux fractions."""
+    f = slab.ASYMMETRY ** 2
+    asym = (slab.ASYMMETRY - f) / (1.0 - f)
+    gamma1 = 0.75 * (1.0 - asym)
+    scaled = g.mul(tau, 1.0 - f)
+    gamma3 = g.mul_add(mu_s, -3.0 * asym / 4.0, 0.5)
+    direct_scaled = g.math("EXPONENT", g.div(g.mul(scaled, -1.0), mu_s))
+    numerator = g.add(g.mul(scaled, gamma1), g.mul(g.sub(gamma3, g.mul(mu_s, gamma1)), g.sub(1.0, direct_scaled)))
+    reflected = g.div(numerator, g.mul_add(scaled, gamma1, 1.0))
+    direct = g.math("EXPONENT", g.div(g.mul(tau, -1.0), mu_s))
+    return reflected, g.math("MAXIMUM", g.sub(g.sub(1.0, reflected), direct), 0.0)
+
+
+def _diffuse_two_stream(g, tau):
+    """slab.diffuse_two_stream."""
+    f = slab.ASYMMETRY ** 2
+    asym = (slab.ASYMMETRY - f) / (1.0 - f)
+    x = g.mul(tau, 0.75 * (1.0 - asym) * (1.0 - f))
+    back = g.div(x, g.add(x, 1.0))
+    through = g.math("MAXIMUM", g.sub(g.sub(1.0, back), g.math("EXPONENT", g.mul(tau, -2.0))), 0.0)
+    return back, through
+
+
+def _table_texel(g, cosine):
+    n = len(slab.TABLE_COS)
+    scaled = g.mul(g.sub(cosine, slab.TABLE_COS[0]), (n - 1) / (slab.TABLE_COS[-1] - slab.TABLE_COS[0]))
+    return g.add(g.clamp(scaled, 0.0, n - 1.0), 0.5)
+
+
+def _higher_orders(g, table_image, tau, abs_sun, mu_s, abs_view, cos_az, reflected):
+    """slab.higher_orders: two fetches (the tau nodes around tau) of the table image."""
+    n_cos, n_tau = len(slab.TABLE_COS), len(slab.TABLE_TAUS)
+    log_tau = g.math("LOGARITHM", g.math("MAXIMUM", tau, 1e-12), 2.0)
+    x_tau = g.clamp(g.sub(log_tau, math.log2(slab.TABLE_TAUS[0])), 0.0, n_tau - 1.0)
+    low = g.math("MINIMUM", g.math("FLOOR", x_tau), n_tau - 2.0)
+    weight = g.sub(x_tau, low)
+    ts, tv = _table_texel(g, abs_sun), _table_texel(g, abs_view)
+    v = g.div(g.mul_add(reflected, n_cos, ts), 2.0 * n_cos)
+    fetches = []
+    for node in (low, g.add(low, 1.0)):
+        u = g.div(g.mul_add(node, n_cos, tv), n_tau * n_cos)
+        fetches.append(g.image(table_image, g.combine(u, v, 1.0)))
+    terms = g.separate(g.vlerp(fetches[0], fetches[1], weight))
+    shape = g.add(g.mul_add(terms[1], cos_az, terms[0]),
+                  g.mul(terms[2], g.sub(g.mul(g.mul(cos_az, cos_az), 2.0), 1.0)))
+    back, through = _two_stream(g, tau, mu_s)
+    return g.mul(g.mul(shape, g.mul(mu_s, 1.0 / math.pi)), g.select(through, back, reflected))
+
+
+def _cos_azimuth(g, cos_view, cos_sun, cos_sun_view):
+    """slab.cos_azimuth."""
+    across = g.math("SQRT", g.mul(g.math("MAXIMUM", g.sub(1.0, g.mul(cos_view, cos_view)), 0.0),
+                                  g.math("MAXIMUM", g.sub(1.0, g.mul(cos_sun, cos_sun)), 0.0)))
+    ratio = g.clamp(g.div(g.sub(cos_sun_view, g.mul(cos_view, cos_sun)), g.math("MAXIMUM", across, 1e-6)), -1.0, 1.0)
+    return g.select(1.0, ratio, g.math("GREATER_THAN", across, 1e-6))
+
+
+def _column_fraction(g, map_image, x, y, scale, offset, coverage):
+    """lut_gen.clouds.sky.column_fraction: the map sampled with wrapping, then thresholded."""
+    off_x, off_y, _ = g.separate(offset)
+    tile = g.mul(scale, float(field.TILE_FEATURES))
+    uv = g.combine(g.div(g.add(x, off_x), tile), g.div(g.add(y, off_y), tile), 0.0)
+    node = g.node("ShaderNodeTexImage", image=map_image, interpolation="Linear", extension="REPEAT")
+    g.feed(node.inputs["Vector"], uv)
+    rank = g.separate(node.outputs["Color"])[0]
+    threshold = g.mul_add(g.sub(1.0, coverage), 1.0 + field.SOFTNESS, -field.SOFTNESS)
+    return g.clamp(g.div(g.sub(rank, threshold), field.SOFTNESS), 0.0, 1.0)
+
+
+def build_cloud_group(map_image, table_image, optical_image, ambient_image, params, lookup_tree):
+    tree = new_group(names.CLOUDS_GROUP)
+    g, gin, gout = group_io(tree, INPUTS, OUTPUTS)
+    view = g.vmath("NORMALIZE", gin.outputs["View"])
+    sun = g.vmath("NORMALIZE", gin.outputs["Sun Direction"])
+    view_x, view_y, view_z = g.separate(view)
+    height = g.math("MAXIMUM", gin.outputs["Camera Height"], 0.0)
+    earth = params.earth_radius
+    middle = g.mul_add(gin.outputs["Thickness"], 0.5, gin.outputs["Base"])
+
+    # layer.middle_hit, cancellation-free.
+    b = g.mul(g.add(height, earth), view_z)
+    q = g.mul(g.sub(middle, height), g.add(g.add(height, middle), 2.0 * earth))
+    disc = g.mul_add(b, b, q)
+    root = g.math("SQRT", g.math("MAXIMUM", disc, 0.0))
+    upward = g.div(q, g.math("MAXIMUM", g.add(b, root), 1e-9))
+    downward = g.div(g.mul(q, -1.0), g.math("MAXIMUM", g.sub(root, b), 1e-9))
+    below = g.math("GREATER_THAN", q, 0.0)
+    distance = g.select(downward, upward, below)
+    goes_down = g.mul(g.math("GREATER_THAN", disc, -1e-30), g.math("LESS_THAN", view_z, 0.0))
+    meets = g.select(goes_down, 1.0, below)
+    hits_ground = g.mul(below_horizon(g, g.math("MINIMUM", height, params.atmosphere_height), view_z, params),
+                        g.math("LESS_THAN", height, middle))
+    hit = g.mul(meets, g.sub(1.0, hits_ground))
+    distance = g.mul(distance, hit)
+
+    start = g.combine(0.0, 0.0, height)
+    point = g.vmath("MULTIPLY_ADD", view, g.combine(distance, distance, distance), start)
+    radius = g.add(middle, earth)
+    cos_view = g.div(g.add(distance, b), radius)
+    cos_sun_view = g.vmath("DOT_PRODUCT", view, sun)
+    sun_z = g.separate(sun)[2]
+    cos_sun = g.div(g.mul_add(distance, cos_sun_view, g.mul(g.add(height, earth), sun_z)), radius)
+
+    fraction = _column_fraction(g, map_image, g.mul(distance, view_x), g.mul(distance, view_y),
+                                gin.outputs["Scale"], gin.outputs["Offset"], gin.outputs["Coverage"])
+    tau = g.mul(g.mul(g.mul(gin.outputs["Density"], gin.outputs["Thickness"]), fraction), hit)
+    abs_view = g.math("MAXIMUM", g.math("ABSOLUTE", cos_view), slab.MIN_COS)
+    abs_sun = g.math("ABSOLUTE", cos_sun)
+    mu_s = g.math("MAXIMUM", abs_sun, slab.MIN_COS)
+    alpha = g.sub(1.0, g.math("EXPONENT", g.div(g.mul(tau, -1.0), abs_view)))
+    reflected = g.math("LESS_THAN", g.mul(cos_view, cos_sun), 0.0)
+    cos_az = _cos_azimuth(g, cos_view, cos_sun, cos_sun_view)
+    radiance = g.add(_single_scattering(g, tau, mu_s, abs_view, cos_sun_view, reflected),
+                     _higher_orders(g, table_image, tau, abs_sun, mu_s, abs_view, cos_az, reflected))
+    sun_light = g.vscale(transmittance_to_top(g, optical_image, middle, cos_sun, params), radiance)
+    back, through = _diffuse_two_stream(g, tau)
+    ambient_share = g.div(g.select(back, through, g.math("GREATER_THAN", cos_view, 0.0)), math.pi)
+    ambient = g.vscale(ambient_skylight(g, ambient_image, g.clamp(cos_sun, -1.0, 1.0)), ambient_share)
+    light = g.vscale(g.vmath("ADD", sun_light, ambient), hit)
+    air = segment_transmittance(g, optical_image, start, point, view, params)
+
+    lookup = g.node("ShaderNodeGroup")
+    lookup.node_tree = lookup_tree
+    for name, value in (("Height", middle), ("Cos View Zenith", g.clamp(cos_view, -1.0, 1.0)),
+                        ("Cos Sun Zenith", g.clamp(cos_sun, -1.0, 1.0)), ("Cos Sun View", cos_sun_view)):
+        g.feed(lookup.inputs[name], value)
+    sky_behind = g.vscale(lookup.outputs["Radiance"], hit)
+
+    for name, socket in (("Alpha", g.mul(alpha, hit)), ("Light", light), ("Air", air), ("Sky Behind", sky_behind)):
+        g.links.new(socket, gout.inputs[name])
+    return tree

@@ -1,0 +1,193 @@
+"""Optics of one column of cloud: a homogeneous slab of optical thickness tau, lit from above by
+the sun (unit irradiance perpendicular to the beam, zenith cosine mu_s) and seen at zenith
+cosine mu_v, from below (the light it lets through) or from above (the light it reflects).
+
+Two parts, each chosen for what it gets right:
+- **single scattering**, exact for the slab, with the cloud phase function: it carries the
+  silver lining toward the sun and the edges of thin clouds, which depend on the phase
+  function's forward peak;
+- **all higher orders** from the delta-Eddington two-stream solution for a conservative slab
+  (Joseph, Wiscombe & Weinman 1976; Meador & Weaver 1980): the diffuse fluxes of a thick cloud
+  are set by its transport optical depth tau (1 - g), and the two-stream solution is within a
+  few percent of exact there. Its diffuse flux, less the part single scattering already carries,
+  leaves isotropically.
+Checked against a Monte Carlo path tracer of the same slab (lut_gen/verify/slab_monte_carlo.py,
+tests/numpy_only/test_cloud_slab.py).
+"""
+from __future__ import annotations
+
+import functools
+import math
+import json
+import os
+
+import numpy as np
+
+# Water-droplet clouds scatter strongly forward (asymmetry ~0.85) with a weak backward glory;
+# two Henyey-Greenstein lobes (weight, g) keep the silver lining and a little back-glow.
+PHASE_LOBES = ((0.9, 0.8), (0.1, -0.3))
+ASYMMETRY = sum(w * g for w, g in PHASE_LOBES)
+FOURIER_TERMS = 3       # the higher orders' azimuthal cosine series: 1, cos(phi), cos(2 phi)
+MIN_COS = 0.02          # grazing rays: cosines below this are held here (a slab's path is finite)
+
+# The higher orders' table: optical thicknesses (log2-spaced; thicker slabs take the last node's
+# angular shape, which has converged by then) and zenith cosines of the sun and of the view.
+TABLE_TAUS = tuple(2.0 ** k for k in range(-2, 7))
+TABLE_COS = tuple(np.round(np.linspace(0.05, 1.0, 8), 4))
+TABLE_PATH = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "higher_orders.json")
+
+
+def henyey_greenstein(cos_theta, g):
+    return (1.0 - g * g) / (4.0 * np.pi * np.power(1.0 + g * g - 2.0 * g * cos_theta, 1.5))
+
+
+def phase(cos_theta):
+    """The cloud phase function (per steradian, integrates to 1) of the scattering angle's cosine."""
+    cos_theta = np.asarray(cos_theta, dtype=np.float64)
+    return sum(w * henyey_greenstein(cos_theta, g) for w, g in PHASE_LOBES)
+
+
+SERIES_BELOW = 1e-3     # |b - a| under which _exp_ratio takes its series (float32-safe in the nodes)
+
+
+def _exp_ratio(a, b):
+    """(exp(-a) - exp(-b)) / (b - a), symmetric in a and b: exp(-m) (1 - exp(-d)) / d with
+    m = min(a, b) and d = |b - a| (no overflow); for small d the series 1 - d / 2 + d^2 / 6,
+    which the node group takes too (float32 cancels there)."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    d = np.abs(b - a)
+    small = d < SERIES_BELOW
+    safe = np.where(small, 1.0, d)
+    return np.exp(-np.minimum(a, b)) * np.where(small, 1.0 - d / 2.0 + d * d / 6.0, -np.expm1(-safe) / safe)
+
+
+def single_scattering(tau, cos_sun, cos_view, cos_sun_view, below: bool):
+    """Singly scattered radiance leaving the slab toward the viewer, per unit sun irradiance.
+    ``cos_sun``, ``cos_view``: zenith cosines of the sun and of the line of sight, both taken
+    positive (from the slab's normal on the viewer's side for the view); ``cos_sun_view``: the
+    cosine between the view direction (eye to cloud) and the direction toward the sun, which is
+    the scattering angle's: the sun straight behind a cloud seen from below is forward scattering."""
+    mu_s = np.maximum(cos_sun, MIN_COS)
+    mu_v = np.maximum(cos_view, MIN_COS)
+    p = phase(cos_sun_view)
+    if below:
+        # p / mu_v int_0^tau exp(-t / mu_s) exp(-(tau - t) / mu_v) dt
+        return p * tau / mu_v * _exp_ratio(tau / mu_v, tau / mu_s)
+    return p * mu_s / (mu_s + mu_v) * -np.expm1(-tau * (1.0 / mu_s + 1.0 / mu_v))
+
+
+def two_stream(tau, cos_sun):
+    """(reflected, diffusely transmitted) flux per unit incident flux of a conservative slab,
+    delta-Eddington. The direct beam exp(-tau / mu_s) is not in either."""
+    mu_s = np.maximum(cos_sun, MIN_COS)
+    f = ASYMMETRY ** 2
+    g = (ASYMMETRY - f) / (1.0 - f)
+    tau_scaled = (1.0 - f) * tau
+    gamma1 = 0.75 * (1.0 - g)
+    gamma3 = (2.0 - 3.0 * g * mu_s) / 4.0
+    reflected = (gamma1 * tau_scaled + (gamma3 - gamma1 * mu_s) * -np.expm1(-tau_scaled / mu_s)) / (1.0 + gamma1 * tau_scaled)
+    transmitted = np.maximum(1.0 - reflected - np.exp(-tau / mu_s), 0.0)
+    return reflected, transmitted
+
+
+@functools.lru_cache(maxsize=1)
+def higher_order_ratios() -> np.ndarray:
+    """(2, n_tau, n_sun, n_view, 3): [0] seen from below, [1] from above, the cosine-series
+    coefficients in azimuth (lut_gen.verify.slab_monte_carlo.higher_order_table) over the
+    delta-Eddington flux's radiance; read-only."""
+    try:
+        with open(TABLE_PATH) as f:
+            data = json.load(f)
+        ratio = np.asarray(data["ratio"], dtype=np.float64)
+    except (OSError, ValueError, KeyError) as error:
+        raise RuntimeError(f"the cloud table {TABLE_PATH} is missing or damaged ({error}); "
+                           "reinstall the extension or run scripts/gen_cloud_table.py") from error
+    if ratio.shape != (2, len(TABLE_TAUS), len(TABLE_COS), len(TABLE_COS), FOURIER_TERMS) or not np.all(np.isfinite(ratio)):
+        raise RuntimeError(f"the cloud table {TABLE_PATH} has the wrong shape or non-finite values; "
+                           "run scripts/gen_cloud_table.py")
+    ratio.flags.writeable = False
+    return ratio
+
+
+def table_coordinates(tau, cos_sun, cos_view):
+    """(tau node below, its upper neighbour's weight, sun texel, view texel): continuous texel
+    coordinates (centres at i + 0.5) of the cosines, clamped to the outer centres, and the
+    log2-spaced tau axis' node and weight (clamped at both ends)."""
+    n_cos, n_tau = len(TABLE_COS), len(TABLE_TAUS)
+    x_tau = np.clip(np.log2(np.maximum(tau, 1e-12)) - math.log2(TABLE_TAUS[0]), 0.0, n_tau - 1.0)
+    low = np.minimum(np.floor(x_tau), n_tau - 2)
+
+    def texel(c):
+        return np.clip((c - TABLE_COS[0]) / (TABLE_COS[-1] - TABLE_COS[0]) * (n_cos - 1), 0.0, n_cos - 1.0) + 0.5
+    return low, x_tau - low, texel(cos_sun), texel(cos_view)
+
+
+def _bilinear(block, ts, tv):
+    """Bilinear look-up of (n_sun, n_view, terms) ``block`` at texel coordinates (Blender's Linear)."""
+    fs, fv = ts - 0.5, tv - 0.5
+    s0 = np.clip(np.floor(fs), 0, block.shape[0] - 2).astype(int)
+    v0 = np.clip(np.floor(fv), 0, block.shape[1] - 2).astype(int)
+    ws, wv = (fs - s0)[:, None], (fv - v0)[:, None]
+    return ((1 - ws) * ((1 - wv) * block[s0, v0] + wv * block[s0, v0 + 1])
+            + ws * ((1 - wv) * block[s0 + 1, v0] + wv * block[s0 + 1, v0 + 1]))
+
+
+def higher_orders(tau, cos_sun, cos_view, cos_azimuth, reflected: bool):
+    """Second and higher orders leaving the slab toward the viewer, per unit sun irradiance: the
+    delta-Eddington diffuse flux spread with the Monte Carlo table's angular shape.
+    ``cos_azimuth``: between the line of sight's and the sun's horizontal directions;
+    ``reflected``: the sun on the viewer's side."""
+    tau, cos_sun, cos_view, cos_azimuth = np.broadcast_arrays(
+        *(np.asarray(a, dtype=np.float64) for a in (tau, cos_sun, cos_view, cos_azimuth)))
+    ratio = higher_order_ratios()[1 if reflected else 0]
+    low, weight, ts, tv = table_coordinates(tau, cos_sun, cos_view)
+    low = low.astype(int)
+    terms = np.empty(tau.shape + (FOURIER_TERMS,))
+    for node in np.unique(low):
+        at = low == node
+        lower = _bilinear(ratio[node], ts[at], tv[at])
+        upper = _bilinear(ratio[node + 1], ts[at], tv[at])
+        terms[at] = lower + (upper - lower) * weight[at, None]
+    shape = terms[..., 0] + terms[..., 1] * cos_azimuth + terms[..., 2] * (2.0 * cos_azimuth ** 2 - 1.0)
+    mu_s = np.maximum(cos_sun, MIN_COS)
+    back, through = two_stream(tau, cos_sun)
+    return shape * mu_s * (back if reflected else through) / np.pi
+
+
+def diffuse_two_stream(tau):
+    """(reflected, diffusely transmitted) fraction of diffuse (sky) light falling on the slab."""
+    f = ASYMMETRY ** 2
+    g = (ASYMMETRY - f) / (1.0 - f)
+    x = 0.75 * (1.0 - g) * (1.0 - f) * np.asarray(tau, dtype=np.float64)
+    reflected = x / (1.0 + x)
+    return reflected, np.maximum(1.0 - reflected - np.exp(-2.0 * np.asarray(tau)), 0.0)
+
+
+def cos_azimuth(cos_view, cos_sun, cos_sun_view):
+    """Cosine of the azimuth between the line of sight and the sun, from signed zenith cosines
+    and their mutual cosine (1 where either is vertical: the azimuth is then moot)."""
+    across = np.sqrt(np.maximum(1.0 - cos_view ** 2, 0.0) * np.maximum(1.0 - cos_sun ** 2, 0.0))
+    return np.where(across > 1e-6, np.clip((cos_sun_view - cos_view * cos_sun) / np.maximum(across, 1e-6), -1.0, 1.0), 1.0)
+
+
+def radiance(tau, cos_sun, cos_view, cos_sun_view, cos_az, reflected):
+    """All orders, per unit sun irradiance. ``cos_sun``, ``cos_view``: absolute zenith cosines."""
+    single = np.where(reflected, single_scattering(tau, cos_sun, cos_view, cos_sun_view, below=False),
+                      single_scattering(tau, cos_sun, cos_view, cos_sun_view, below=True))
+    higher = np.where(reflected, higher_orders(tau, cos_sun, cos_view, cos_az, True),
+                      higher_orders(tau, cos_sun, cos_view, cos_az, False))
+    return single + higher
+
+
+def table_pixels() -> np.ndarray:
+    """The higher orders' table as an RGBA float image (rows bottom to top) for the node group:
+    row side * n_cos + sun node, column tau node * n_cos + view node, RGB the three azimuthal
+    terms. Within one tau node's block the image's bilinear filtering at texel coordinates
+    clamped to the block's outer centres is _bilinear's."""
+    ratio = higher_order_ratios()
+    n_cos, n_tau = len(TABLE_COS), len(TABLE_TAUS)
+    pixels = np.ones((2 * n_cos, n_tau * n_cos, 4), dtype=np.float32)
+    for side in range(2):
+        for node in range(n_tau):
+            pixels[side * n_cos:(side + 1) * n_cos, node * n_cos:(node + 1) * n_cos, :3] = ratio[side, node]
+    return pixels

@@ -1,0 +1,77 @@
+"""The cloud layer's optics and field against references: the slab's radiance against the Monte
+Carlo path tracer (a seed the table was not built with), and the map's coverage."""
+import numpy as np
+import pytest
+
+from lut_gen.clouds import field, slab
+from lut_gen.clouds.layer import CloudLayer, middle_hit
+from lut_gen.verify import slab_monte_carlo as mc
+
+
+def lines_of_sight(cos_sun):
+    """Lines of sight (eye to cloud) looking up at zenith angles 0-70 deg, azimuths 0-180 from
+    the sun, and the sun's direction (toward +x)."""
+    views = []
+    for zenith in (0.0, 30.0, 50.0, 70.0):
+        for azimuth in (0.0, 60.0, 120.0, 180.0):
+            z, a = np.radians(zenith), np.radians(azimuth)
+            views.append([np.sin(z) * np.cos(a), np.sin(z) * np.sin(a), np.cos(z)])
+    return np.array(views), np.array([np.sqrt(1.0 - cos_sun ** 2), 0.0, cos_sun])
+
+
+@pytest.mark.parametrize("sun_elevation", [60.0, 20.0, 5.0])
+@pytest.mark.parametrize("tau", [20.0, 3.0])
+def test_slab_radiance_matches_the_path_tracer(tau, sun_elevation):
+    cos_sun = np.sin(np.radians(sun_elevation))
+    up, sun = lines_of_sight(cos_sun)
+    down = up * np.array([1.0, 1.0, -1.0])
+    ref = mc.trace(tau, cos_sun, np.concatenate([-up, -down]), photons=20000, seed=2024)
+    n = len(up)
+    for looks, reference, se, reflected in ((up, ref.below[:n], ref.below_se[:n], False),
+                                            (down, ref.above[n:], ref.above_se[n:], True)):
+        cos_view = np.abs(looks[:, 2])
+        model = slab.radiance(tau, cos_sun, cos_view, looks @ sun,
+                              slab.cos_azimuth(looks[:, 2], cos_sun, looks @ sun), reflected)
+        assert np.all(se < 0.1 * reference)
+        error = np.abs(model / reference - 1.0)
+        assert np.median(error) < 0.1, (reflected, np.round(model / reference, 2))
+        # What the eye takes in over these views (cosine-weighted, as flux): within 10%.
+        weights = cos_view
+        assert abs((model * weights).sum() / (reference * weights).sum() - 1.0) < 0.1
+
+
+def test_a_thick_slab_transmits_what_two_stream_says():
+    for cos_sun in (0.9, 0.4):
+        ref = mc.trace(20.0, cos_sun, np.array([[0.0, 0.0, -1.0]]), photons=20000, seed=5)
+        _, diffuse = slab.two_stream(20.0, cos_sun)
+        assert abs((diffuse + np.exp(-20.0 / cos_sun)) / ref.transmitted_flux - 1.0) < 0.1
+
+
+def test_cloud_map_is_seeded_tileable_and_covers_what_coverage_says():
+    a, b, c = field.cloud_map(3, 128), field.cloud_map(3, 128), field.cloud_map(4, 128)
+    np.testing.assert_array_equal(a, b)
+    assert np.abs(a - c).mean() > 0.1
+    # Tileable: the step across the wrap is like any other step.
+    inner = np.abs(np.diff(a, axis=1)).mean()
+    assert np.abs(a[:, 0] - a[:, -1]).mean() < 2.0 * inner
+    for coverage in (0.2, 0.5, 0.8):
+        covered = (field.thickness_fraction(a, coverage) > 0.5).mean()
+        assert abs(covered - coverage) <= field.SOFTNESS / 2 + 0.01
+    assert field.thickness_fraction(a, 0.0).max() == 0.0
+    assert field.thickness_fraction(a, 1.0).min() == 1.0
+
+
+def test_the_layer_sinks_toward_the_horizon_and_clamps_bad_input():
+    layer = CloudLayer()
+    up = np.array([[0.0, 0.0, 1.0], [0.0, np.cos(0.1), np.sin(0.1)], [0.0, 1.0, 0.0]])
+    distance, hit = middle_hit(layer, 2.0, up, 6360e3)
+    assert hit.all()
+    np.testing.assert_allclose(distance[0], layer.middle - 2.0, rtol=1e-9)
+    # Horizontal: the curved middle sphere is ~150 km away, not infinitely far.
+    assert 1.3e5 < distance[2] < 1.7e5
+    bad = CloudLayer(coverage=float("nan"), base=-50.0, thickness=0.0, density=float("inf"),
+                     scale=float("nan"), offset=(float("nan"), 3.0)).clamped()
+    assert (bad.coverage, bad.base, bad.thickness, bad.density, bad.scale) == (0.4, 0.0, 10.0, 1.0, 2000.0)
+    assert bad.offset == (0.0, 3.0)
+    high = CloudLayer(base=19000.0, thickness=4000.0).clamped()
+    assert high.base == 15000.0 and high.base + high.thickness <= 20000.0
