@@ -12,6 +12,7 @@ from typing import Callable
 from ..scene import names
 from . import epipolar, frame_values, lookup  # noqa: F401 (their helpers are used as nodes.<module>.<name>)
 from .aerial import build_aerial_group
+from .cloud_shadow import build_cloud_shadow_group
 from .clouds import build_cloud_group
 from .frame_values import build_frame_values_group
 from .inscattering import build_section_group, lookup_group_name, section_group_name
@@ -50,6 +51,8 @@ GROUPS = (
           "tests/twins/test_aerial_pass.py::test_segment_transmittance_just_below_the_horizon_matches_twin"),
     Group(names.SKY_GROUP, build_sky_group, "lut_gen.tables.lookup.Luts.sky_radiance", _SKY_TEST),
     Group(names.CLOUDS_GROUP, build_cloud_group, "lut_gen.clouds.sky.view", _CLOUDS_TEST),
+    Group(names.CLOUD_SHADOW_GROUP, build_cloud_shadow_group, "lut_gen.clouds.shadow.sun_transmittance",
+          "tests/twins/test_cloud_shadow.py::test_cloud_shadows_on_a_plain_match_the_twin"),
     Group(names.TERRAIN_GROUP, build_terrain_group, "lut_gen.passes.terrain.terrain_radiance",
           "tests/twins/test_terrain_group.py::test_terrain_group_matches_numpy_twin"),
     Group(names.AERIAL_GROUP, build_aerial_group, "lut_gen.passes.aerial.aerial_perspective", _AERIAL_TEST),

@@ -20,6 +20,7 @@ INPUTS = [
     ("View", "NodeSocketVector", (0.0, 0.0, 1.0)),            # unit direction of the ray
     ("Sun Direction", "NodeSocketVector", (0.0, 0.0, 1.0)),
     ("Camera Height", "NodeSocketFloat", 2.0),
+    ("Camera XY", "NodeSocketVector", (0.0, 0.0, 0.0)),       # the camera's world x, y: where the map is read
     ("Coverage", "NodeSocketFloat", 0.4),
     ("Base", "NodeSocketFloat", 1500.0),
     ("Thickness", "NodeSocketFloat", 600.0),
@@ -119,7 +120,7 @@ def _cos_azimuth(g, cos_view, cos_sun, cos_sun_view):
     return g.select(1.0, ratio, g.math("GREATER_THAN", across, 1e-6))
 
 
-def _column_fraction(g, map_image, x, y, scale, offset, coverage):
+def column_fraction(g, map_image, x, y, scale, offset, coverage):
     """lut_gen.clouds.sky.column_fraction: the map sampled with wrapping, then thresholded."""
     off_x, off_y, _ = g.separate(offset)
     tile = g.mul(scale, float(field.TILE_FEATURES))
@@ -165,7 +166,8 @@ def build_cloud_group(map_image, table_image, optical_image, ambient_image, para
     sun_z = g.separate(sun)[2]
     cos_sun = g.div(g.mul_add(distance, cos_sun_view, g.mul(g.add(height, earth), sun_z)), radius)
 
-    fraction = _column_fraction(g, map_image, g.mul(distance, view_x), g.mul(distance, view_y),
+    camera_x, camera_y, _ = g.separate(gin.outputs["Camera XY"])
+    fraction = column_fraction(g, map_image, g.mul_add(distance, view_x, camera_x), g.mul_add(distance, view_y, camera_y),
                                 gin.outputs["Scale"], gin.outputs["Offset"], gin.outputs["Coverage"])
     tau = g.mul(g.mul(g.mul(gin.outputs["Density"], gin.outputs["Thickness"]), fraction), hit)
     abs_view = g.math("MAXIMUM", g.math("ABSOLUTE", cos_view), slab.MIN_COS)

@@ -21,7 +21,7 @@ from .optical import below_horizon, ground_radiance, transmittance_to_top
 from ..scene import names
 
 # The cloud group's settings, fed through as "Cloud <name>" inputs of the sky group.
-CLOUD_INPUTS = [item for item in _CLOUD_GROUP_INPUTS if item[0] not in {"View", "Sun Direction", "Camera Height"}]
+CLOUD_INPUTS = [item for item in _CLOUD_GROUP_INPUTS if item[0] not in {"View", "Sun Direction", "Camera Height", "Camera XY"}]
 
 INPUTS = [
     ("Sun Direction", "NodeSocketVector", (0.0, 0.0, 1.0)),   # unit vector toward the sun
@@ -31,6 +31,7 @@ INPUTS = [
     ("Sun Angle", "NodeSocketFloat", math.radians(0.545)),    # apparent diameter (lamp's Angle)
     ("Light Scene", "NodeSocketFloat", 1.0),                  # 0: sky seen by camera/glossy rays only
     ("Clouds", "NodeSocketFloat", 0.0),                       # 1: the cloud layer is on
+    ("Camera XY", "NodeSocketVector", (0.0, 0.0, 0.0)),       # the camera's world x, y (clouds only)
     *[(f"Cloud {name}", kind, default) for name, kind, default in CLOUD_INPUTS],
 ]
 
@@ -79,6 +80,7 @@ def _cloudy(g, gin, clouds_tree, view, sun, height, sky, disc, ground, strength,
     g.feed(node.inputs["View"], view)
     g.feed(node.inputs["Sun Direction"], sun)
     g.feed(node.inputs["Camera Height"], height)
+    g.feed(node.inputs["Camera XY"], gin.outputs["Camera XY"])
     for name, _, _ in CLOUD_INPUTS:
         g.feed(node.inputs[name], gin.outputs[f"Cloud {name}"])
     alpha, light, air, behind = (node.outputs[name] for name in ("Alpha", "Light", "Air", "Sky Behind"))

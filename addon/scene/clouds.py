@@ -7,8 +7,10 @@ import bpy
 import numpy as np
 
 from ...lut_gen.clouds import field, slab
-from ...lut_gen.clouds.layer import CloudLayer
+from ...lut_gen.clouds.layer import RANGES, CloudLayer
+from ..settings import Sanitized
 from . import names
+from . import sun as sun_lamps
 from .setup import drivers
 
 # Sky-group input <- scene.ols control (the offset's two components are driven one by one).
@@ -78,13 +80,126 @@ def drive_sky_inputs(group, scene):
     keyframed controls (the offset, for wind) then animate the clouds in every render, farm
     chunks included."""
     drivers.drive_switch(group.inputs["Clouds"], scene, "clouds_enabled")
+    for axis in range(2):
+        drivers.drive_camera_axis(group.inputs["Camera XY"], axis, scene)
     for socket, name in SKY_INPUTS.items():
         drivers.drive_scene_setting(group.inputs[socket], scene, name)
     for axis in range(2):
         drivers.drive_vector_setting(group.inputs["Cloud Offset"], axis, scene, "cloud_offset")
 
 
+# The shadow layer's half size: it must hold the sun line of every point the camera sees
+# shadowed, up to ~25 km away at a 4 deg sun under a 1.8 km layer, and beyond.
+SHADOW_LAYER_HALF_SIZE = 100_000.0
+
+
+def _shadow_mesh():
+    mesh = bpy.data.meshes.get(names.CLOUD_SHADOW_OBJECT) or bpy.data.meshes.new(names.CLOUD_SHADOW_OBJECT)
+    if len(mesh.vertices) != 4:
+        h = SHADOW_LAYER_HALF_SIZE
+        mesh.clear_geometry()
+        mesh.from_pydata([(-h, -h, 0.0), (h, -h, 0.0), (h, h, 0.0), (-h, h, 0.0)], [], [(0, 1, 2, 3)])
+    return mesh
+
+
+def _shadow_material(sun, scene):
+    material = bpy.data.materials.get(names.CLOUD_SHADOW_MATERIAL) or bpy.data.materials.new(names.CLOUD_SHADOW_MATERIAL)
+    material[names.GENERATED] = True
+    material.use_nodes = True
+    tree = material.node_tree
+    drivers.remove_drivers(tree)
+    tree.nodes.clear()
+    group = tree.nodes.new("ShaderNodeGroup")
+    group.node_tree = bpy.data.node_groups[names.CLOUD_SHADOW_GROUP]
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    tree.links.new(group.outputs["Shader"], output.inputs["Surface"])
+    drivers.drive_sun_direction(group.inputs["Sun Direction"], sun)
+    for socket, name in (("Coverage", "cloud_coverage"), ("Thickness", "cloud_thickness"),
+                         ("Density", "cloud_density"), ("Scale", "cloud_scale")):
+        drivers.drive_scene_setting(group.inputs[socket], scene, name)
+    for axis in range(2):
+        drivers.drive_vector_setting(group.inputs["Offset"], axis, scene, "cloud_offset")
+    # EEVEE: shadows through the material's transparency.
+    if hasattr(material, "use_transparent_shadow"):
+        material.use_transparent_shadow = True
+    if hasattr(material, "surface_render_method"):
+        material.surface_render_method = "DITHERED"
+    return material
+
+
+def ensure_shadow_layer(scene, sun):
+    """The shadow-only plane at the clouds' middle height (driven from Base and Thickness)."""
+    obj = bpy.data.objects.get(names.CLOUD_SHADOW_OBJECT)
+    if obj is None:
+        obj = bpy.data.objects.new(names.CLOUD_SHADOW_OBJECT, _shadow_mesh())
+    if obj.name not in scene.collection.objects:
+        scene.collection.objects.link(obj)
+    obj[names.GENERATED] = True
+    obj.data.materials.clear()
+    obj.data.materials.append(_shadow_material(sun, scene))
+    for ray in ("camera", "diffuse", "glossy", "transmission", "volume_scatter"):
+        setattr(obj, f"visible_{ray}", False)
+    obj.visible_shadow = True
+    obj.hide_select = True
+    obj.driver_remove("location", 2)
+    curve = obj.driver_add("location", 2)
+    driver = curve.driver
+    driver.type = "SCRIPTED"
+    for var_name, prop in (("b", "cloud_base"), ("t", "cloud_thickness")):
+        var = driver.variables.new()
+        var.name = var_name
+        var.targets[0].id_type = "SCENE"
+        var.targets[0].id = scene
+        var.targets[0].data_path = f"ols.{prop}"
+    low, high = layer_ranges()
+    driver.expression = f"min(max(b, {low[0]!r}), {low[1]!r}) + 0.5 * min(max(t, {high[0]!r}), {high[1]!r})"
+    return obj
+
+
+def layer_ranges():
+    return RANGES["base"][1:], RANGES["thickness"][1:]
+
+
+def remove_shadow_layer():
+    obj = bpy.data.objects.get(names.CLOUD_SHADOW_OBJECT)
+    if obj is not None:
+        mesh = obj.data
+        bpy.data.objects.remove(obj)
+        if mesh is not None and mesh.users == 0:
+            bpy.data.meshes.remove(mesh)
+    material = bpy.data.materials.get(names.CLOUD_SHADOW_MATERIAL)
+    if material is not None and material.users == 0:
+        bpy.data.materials.remove(material)
+
+
+def wire(scene, sun):
+    """Set Up Scene's part: the map for the seed, and the shadow layer while clouds are on."""
+    ensure_map_image(seed_of(scene))
+    if scene.ols.clouds_enabled and sun is not None:
+        ensure_shadow_layer(scene, sun)
+    else:
+        remove_shadow_layer()
+
+
 def sync(scene):
-    """After the seed changed: the map for the new seed (the groups read the image in place)."""
-    if bpy.data.node_groups.get(names.CLOUDS_GROUP) is not None:
-        ensure_map_image(seed_of(scene))
+    """After Clouds or the seed changed on a set-up scene: the map for the seed, the shadow
+    layer in or out (the groups read the image in place)."""
+    if not scene.get(names.WIRED_KEY) or bpy.data.node_groups.get(names.CLOUD_SHADOW_GROUP) is None:
+        return
+    wire(scene, sun_lamps.find_sun(scene))
+
+
+def numpy_layer(scene):
+    """(CloudLayer, map ranks) for the numpy code while the layer is on, else None. The ranks
+    are read from the image once per seed."""
+    settings = getattr(scene, "ols", None)
+    image = bpy.data.images.get(names.CLOUD_MAP_IMAGE)
+    if settings is None or not settings.clouds_enabled or image is None:
+        return None
+    key = (image.name, image.get(SEED_KEY))
+    if _ranks.get("key") != key:
+        _ranks.update(key=key, ranks=map_ranks(image))
+    return layer_of(Sanitized(settings)), _ranks["ranks"]
+
+
+_ranks = {}

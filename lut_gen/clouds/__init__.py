@@ -2,4 +2,4 @@
 map texel) and how the sky, the ground's light and the light shafts see it. Pure numpy; the
 add-on's node groups are its twins (addon/nodes/clouds.py)."""
 
-from . import field, layer, slab, sky  # noqa: F401,E402 (lut_gen.clouds.<module> for the add-on and tests)
+from . import field, layer, shadow, slab, sky  # noqa: F401,E402 (lut_gen.clouds.<module> for the add-on and tests)

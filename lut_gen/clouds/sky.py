@@ -45,7 +45,9 @@ def column_fraction(layer: CloudLayer, cloud, x, y):
     return field.thickness_fraction(field.sample(cloud, u, v), layer.coverage)
 
 
-def view(luts: Luts, layer: CloudLayer, cloud, camera_height: float, directions, sun) -> CloudView:
+def view(luts: Luts, layer: CloudLayer, cloud, camera_height: float, directions, sun, camera_xy=(0.0, 0.0)) -> CloudView:
+    """``camera_xy``: the camera's world x, y, where the map is read (the sky itself does not
+    depend on it; the clouds and their shadows on the ground must agree)."""
     params = luts.params
     directions = np.asarray(directions, dtype=np.float64)
     sun = np.asarray(sun, dtype=np.float64)
@@ -59,7 +61,7 @@ def view(luts: Luts, layer: CloudLayer, cloud, camera_height: float, directions,
     cos_view = (directions * centre_to_point).sum(-1) / radius
     cos_sun = centre_to_point @ sun / radius
     cos_sun_view = directions @ sun
-    fraction = column_fraction(layer, cloud, point[..., 0], point[..., 1])
+    fraction = column_fraction(layer, cloud, point[..., 0] + camera_xy[0], point[..., 1] + camera_xy[1])
     tau = layer.density * layer.thickness * fraction * hit
     abs_view = np.maximum(np.abs(cos_view), slab.MIN_COS)
     abs_sun = np.abs(cos_sun)

@@ -26,6 +26,10 @@ def scene_triangles(depsgraph) -> np.ndarray:
         obj = instance.object
         if obj.type != "MESH" or not getattr(obj, "visible_shadow", True) or obj.hide_render:
             continue
+        if obj.name == names.CLOUD_SHADOW_OBJECT:
+            # The clouds' shadow-only layer is a partial occluder, not a solid one: the shadow
+            # maps would make it a roof over the whole scene.
+            continue
         mesh = obj.to_mesh()
         try:
             mesh.calc_loop_triangles()

@@ -13,6 +13,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
+from ....lut_gen.clouds import sky as cloud_sky
 from ....lut_gen.passes import panorama
 from .. import names
 
@@ -37,6 +38,17 @@ def ensure_ground_image():
     return ensure_image(names.GROUND_LIGHT_IMAGE)
 
 
+def _with_clouds(luts, clouds, sun, camera_height, sky, ground, camera_xy):
+    """lut_gen.clouds.sky.composite split between the panoramas: the sky image (scaled by the
+    scattering scale) loses what the clouds hide of the air behind them, and the ground image
+    (scaled by the sun strength alone) gains the clouds' own light."""
+    layer, ranks = clouds
+    view = cloud_sky.view(luts, layer, ranks, camera_height, panorama.directions(*SIZE), sun, camera_xy)
+    hidden = view.air * view.alpha[..., None] * view.sky_behind
+    behind_ground = 1.0 - np.where(camera_height >= layer.middle, view.alpha, 0.0)[..., None]
+    return sky - hidden, ground * behind_ground + view.air * view.light
+
+
 def _write(image, radiance):
     rgba = np.ones(radiance.shape[:2] + (4,), dtype=np.float32)
     rgba[..., :3] = radiance
@@ -44,20 +56,25 @@ def _write(image, radiance):
     image.update()
 
 
-def update(info, sun_direction, camera_height: float, force=False) -> bool:
-    """Recompute the panoramas when the sun, the camera height or the bake changed; ``info``:
-    the wired bake (tables.wired_bake.BakeInfo)."""
+def update(info, sun_direction, camera_height: float, force=False, clouds=None, camera_xy=(0.0, 0.0)) -> bool:
+    """Recompute the panoramas when the sun, the camera height, the clouds or the bake changed;
+    ``info``: the wired bake (tables.wired_bake.BakeInfo); ``clouds``: (CloudLayer, map ranks)
+    while the cloud layer is on."""
     image, ground_image = ensure_image(), ensure_ground_image()
     sun = np.asarray(sun_direction, dtype=np.float64)
     previous = _state.get(image.name)
-    if (not force and previous is not None and previous[0] == info.key
+    # The camera's x, y matter only to the clouds (where the map is read).
+    cloud_key = None if clouds is None else (clouds[0], tuple(camera_xy))
+    if (not force and previous is not None and previous[0] == info.key and previous[3] == cloud_key
             and np.abs(previous[1] - sun).max() < SUN_TOLERANCE and abs(previous[2] - camera_height) < HEIGHT_TOLERANCE_M):
         return False
     luts = info.image_luts()
     sky, ground = panorama.panoramas(luts, sun, camera_height, SIZE)
+    if clouds is not None:
+        sky, ground = _with_clouds(luts, clouds, sun, camera_height, sky, ground, camera_xy)
     _write(image, sky)
     _write(ground_image, ground)
-    _state[image.name] = (info.key, sun, camera_height)
+    _state[image.name] = (info.key, sun, camera_height, cloud_key)
     return True
 
     _state.clear()

@@ -36,6 +36,11 @@ def drive_camera_height(socket, scene):
     _drive(socket, None, scene, "camera.matrix_world[3][2]", id_type="SCENE")
 
 
+def drive_camera_axis(socket, axis: int, scene):
+    """World x (0) or y (1) of the scene camera."""
+    _drive(socket, axis, scene, f"camera.matrix_world[3][{axis}]", id_type="SCENE")
+
+
 def drive_scene_setting(socket, scene, name: str):
     """The control's value as settings.safe_value reads it: NaN (v != v) gives the default, and a
     value past the control's range (an ID-property write) is clamped into it."""

@@ -46,6 +46,7 @@ def build_groups(bake_dir, engine="CYCLES"):
                                          params, lookup)
     nodes.build_sky_group(images["optical_depth"], params, skylight.ensure_image(), images["ambient"],
                           skylight.ensure_ground_image(), clouds_tree=cloud_tree)
+    nodes.build_cloud_shadow_group(bpy.data.images[names.CLOUD_MAP_IMAGE])
     nodes.build_terrain_group(images["optical_depth"], images["ambient"], params)
     for table in nodes.COMPOSITOR_TABLES:
         nodes.build_lookup_group(images[table], dims, params, compositor=True, name=nodes.lookup_group_name(table),
@@ -269,6 +270,7 @@ def _wire_checked(scene, bake_dir, images, params, terrain_objects, sun, resolut
     wire_world(scene, sun, light_scene=0.0 if terrain_objects else 1.0)
     for obj in terrain_objects:
         wire_terrain(obj, sun)
+    clouds.wire(scene, sun)
     build_light_shafts(scene, images["optical_depth"], params)
     compositor.wire_compositor(scene)
     scene[names.WIRED_KEY] = lut_gen.store.exr_io.verify_bake(bake_dir)     # verified by build_groups: cached
@@ -292,8 +294,9 @@ def refresh(scene, force=False):
             set_origin_transmittance(group, sun.data.color)
     compositor.sync_settings(scene)
     frame_update.write_frame_values(scene)
-    height = scene.camera.matrix_world.translation.z if scene.camera else 0.0
-    skylight.update(info, sun_lamps.direction_to_sun(sun), height, force)
+    position = scene.camera.matrix_world.translation if scene.camera else (0.0, 0.0, 0.0)
+    skylight.update(info, sun_lamps.direction_to_sun(sun), position[2], force, clouds=clouds.numpy_layer(scene),
+                    camera_xy=(position[0], position[1]))
 
 
 def forget_caches():
@@ -304,6 +307,7 @@ def forget_caches():
 def unwire_scene(scene):
     """Restore the world, materials and compositor the scene had before wiring."""
     compositor.unwire_compositor(scene)
+    clouds.remove_shadow_layer()
     if not any(other.get(names.WIRED_KEY) for other in bpy.data.scenes if other != scene):
         shadow_maps.remove_images(names.FRAME_IMAGE, *epipolar_tables.ALL_IMAGES)
     previous = scene.get(names.PREVIOUS_WORLD)
