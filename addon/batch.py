@@ -19,6 +19,7 @@ from pathlib import Path
 import bpy
 
 from .. import lut_gen
+from ..lut_gen.clouds.presets import CLOUD_PRESETS
 from . import baking
 from .progress_lines import ProgressLines, render_progress
 from .scene import names
@@ -79,6 +80,10 @@ def parse_args(argv):
     parser.add_argument("--samples", type=_positive_int, default=None, help="render samples (default: the scene's)")
     parser.add_argument("--preset", choices=sorted(PRESETS), default=None,
                         help="a look: sun and exposure (explicit --sun-elevation / --sun-azimuth win)")
+    parser.add_argument("--clouds", choices=sorted(CLOUD_PRESETS), default=None,
+                        help="turn the cloud layer on with this preset")
+    parser.add_argument("--cloud-coverage", type=_finite_float, default=None,
+                        help="turn the cloud layer on with this coverage (0-1; with --clouds: overrides it)")
     parser.add_argument("--sun-elevation", type=_finite_float, default=None, help="degrees above the horizon")
     parser.add_argument("--sun-azimuth", type=_finite_float, default=None, help="degrees from +Y toward +X")
     parser.add_argument("--pack", action="store_true",
@@ -167,6 +172,16 @@ def apply_options(scene, args):
             args.sun_elevation = look["sun_elevation"]
         if args.sun_azimuth is None:
             args.sun_azimuth = look["sun_azimuth"]
+    if args.clouds or args.cloud_coverage is not None:
+        settings = scene.ols
+        if args.clouds:
+            for name, value in CLOUD_PRESETS[args.clouds].items():
+                setattr(settings, f"cloud_{name}", value)
+        if args.cloud_coverage is not None:
+            if not 0.0 <= args.cloud_coverage <= 1.0:
+                raise BatchError(f"--cloud-coverage must be from 0 to 1, got {args.cloud_coverage}")
+            settings.cloud_coverage = args.cloud_coverage
+        settings.clouds_enabled = True
     if args.sun_elevation is not None or args.sun_azimuth is not None:
         direction = sun_lamps.direction_to_sun(sun)
         elevation = math.degrees(math.asin(max(-1.0, min(1.0, direction[2]))))

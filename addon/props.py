@@ -11,6 +11,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty
 
 from ..lut_gen.clouds.layer import RANGES as CLOUD_RANGES
+from ..lut_gen.clouds.presets import CLOUD_PRESETS
 from ..lut_gen.model.atmosphere import DEFAULT_GROUND_ALBEDO
 from . import baking
 from .scene import clouds, names
@@ -45,6 +46,12 @@ def _sync_clouds(settings, context):
     """The cloud map follows the seed (0.9 s to make), and the world its on/off switch."""
     if context.scene is not None:
         clouds.sync(context.scene)
+
+
+def _apply_cloud_preset(settings, context):
+    key = settings.cloud_preset.lower().replace("_", "-")
+    for name, value in CLOUD_PRESETS.get(key, {}).items():
+        setattr(settings, f"cloud_{name}", value)
 
 
 def _capture_day_range(settings, context):
@@ -467,6 +474,14 @@ class OLSSettings(bpy.types.PropertyGroup):
                     "hazed by the air in front of it (world shader; Set Up Scene makes the images)",
         default=False,
         update=_sync_clouds,
+    )
+    cloud_preset: EnumProperty(
+        name="Preset", description="Set the cloud controls for a common sky (they stay editable)",
+        items=(("CUSTOM", "Custom", "The controls as set"),
+               *((key.upper().replace("-", "_"), key.replace("-", " ").capitalize(),
+                  ", ".join(f"{k} {v:g}" for k, v in values.items())) for key, values in CLOUD_PRESETS.items())),
+        default="CUSTOM",
+        update=_apply_cloud_preset,
     )
     cloud_coverage: FloatProperty(
         name="Coverage", description="Fraction of the sky the clouds cover (0: clear, 1: overcast)",

@@ -69,6 +69,7 @@ PROPERTIES_BY_SET = {
     ],
     "CLOUDS": [
         "clouds_enabled",
+        "cloud_preset",
         "cloud_coverage",
         "cloud_base",
         "cloud_thickness",

@@ -27,7 +27,7 @@ ENABLED_BY = {
        for name in ("epipolar_slices", "samples_per_slice", "initial_sample_step", "epipole_sampling_density",
                     "refinement_threshold", "show_sampling", "use_min_max_optimization")},
     **{name: (lambda settings: settings.clouds_enabled)
-       for name in ("cloud_coverage", "cloud_base", "cloud_thickness", "cloud_density", "cloud_scale",
+       for name in ("cloud_preset", "cloud_coverage", "cloud_base", "cloud_thickness", "cloud_density", "cloud_scale",
                     "cloud_seed", "cloud_offset")},
 }
 

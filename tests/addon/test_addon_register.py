@@ -100,7 +100,7 @@ def test_every_control_is_a_property(addon_package):
         "num_cascades", "show_cascades", "smooth_shadows", "best_cascade_search", "cascade_partitioning_factor",
         "first_cascade_to_ray_march", "scattering_technique", "epipolar_slices", "samples_per_slice",
         "initial_sample_step", "epipole_sampling_density", "refinement_threshold", "show_sampling",
-        "use_min_max_optimization", "clouds_enabled", "cloud_coverage", "cloud_base", "cloud_thickness",
+        "use_min_max_optimization", "clouds_enabled", "cloud_preset", "cloud_coverage", "cloud_base", "cloud_thickness",
         "cloud_density", "cloud_scale", "cloud_seed", "cloud_offset"}
     notes = set(settings.WITHOUT_EFFECT.values())
     for name in names:
