@@ -14,7 +14,8 @@ import math
 from ...lut_gen.clouds import field, slab
 from ..scene import names
 from .builder import group_io, new_group
-from .optical import ambient_skylight, below_horizon, segment_transmittance, transmittance_to_top
+from .optical import (ambient_skylight, below_horizon, net_density_to_top, transmittance_from_net_density,
+                      transmittance_to_top)
 
 INPUTS = [
     ("View", "NodeSocketVector", (0.0, 0.0, 1.0)),            # unit direction of the ray
@@ -132,6 +133,18 @@ def column_fraction(g, map_image, x, y, scale, offset, coverage):
     return g.clamp(g.div(g.sub(rank, threshold), field.SOFTNESS), 0.0, 1.0)
 
 
+def _air_to_cloud(g, image, height, cos_view, cloud_height, cos_at_cloud, params):
+    """lut_gen.clouds.sky.air_to_cloud: two look-ups, their ends chosen by the ray's direction."""
+    height = g.math("MINIMUM", height, params.atmosphere_height)
+    down = g.math("LESS_THAN", cos_view, 0.0)
+    near_h, far_h = g.select(height, cloud_height, down), g.select(cloud_height, height, down)
+    near_c = g.select(cos_view, g.mul(cos_at_cloud, -1.0), down)
+    far_c = g.select(cos_at_cloud, g.mul(cos_view, -1.0), down)
+    near = net_density_to_top(g, image, near_h, g.clamp(near_c, -1.0, 1.0), params)
+    far = net_density_to_top(g, image, far_h, g.clamp(far_c, -1.0, 1.0), params)
+    return transmittance_from_net_density(g, *[g.math("MAXIMUM", g.sub(a, b), 0.0) for a, b in zip(near, far)], params)
+
+
 def build_cloud_group(map_image, table_image, optical_image, ambient_image, params, lookup_tree):
     tree = new_group(names.CLOUDS_GROUP)
     g, gin, gout = group_io(tree, INPUTS, OUTPUTS)
@@ -158,8 +171,6 @@ def build_cloud_group(map_image, table_image, optical_image, ambient_image, para
     hit = g.mul(meets, g.sub(1.0, hits_ground))
     distance = g.mul(distance, hit)
 
-    start = g.combine(0.0, 0.0, height)
-    point = g.vmath("MULTIPLY_ADD", view, g.combine(distance, distance, distance), start)
     radius = g.add(middle, earth)
     cos_view = g.div(g.add(distance, b), radius)
     cos_sun_view = g.vmath("DOT_PRODUCT", view, sun)
@@ -183,7 +194,7 @@ def build_cloud_group(map_image, table_image, optical_image, ambient_image, para
     ambient_share = g.div(g.select(back, through, g.math("GREATER_THAN", cos_view, 0.0)), math.pi)
     ambient = g.vscale(ambient_skylight(g, ambient_image, g.clamp(cos_sun, -1.0, 1.0)), ambient_share)
     light = g.vscale(g.vmath("ADD", sun_light, ambient), hit)
-    air = segment_transmittance(g, optical_image, start, point, view, params)
+    air = _air_to_cloud(g, optical_image, height, view_z, middle, cos_view, params)
 
     lookup = g.node("ShaderNodeGroup")
     lookup.node_tree = lookup_tree

@@ -24,7 +24,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..passes import aerial
 from ..tables import ground
 from ..tables.lookup import Luts
 from . import field, slab
@@ -76,10 +75,28 @@ def view(luts: Luts, layer: CloudLayer, cloud, camera_height: float, directions,
     ambient = luts.ambient_skylight(np.clip(cos_sun, -1.0, 1.0)) / np.pi * np.where(
         cos_view > 0, through, back)[..., None]
     light = (sun_light + ambient) * hit[..., None]
-    air = aerial.segment_transmittance(luts, np.broadcast_to([0.0, 0.0, height], point.shape), point)
+    air = air_to_cloud(luts, height, directions[..., 2], layer.middle, cos_view)
     sky_behind = luts.sky_radiance(layer.middle, np.clip(cos_view, -1.0, 1.0), np.clip(cos_sun, -1.0, 1.0),
                                    cos_sun_view)
     return CloudView(hit, alpha * hit, light, air, sky_behind * hit[..., None])
+
+
+def air_to_cloud(luts: Luts, camera_height, cos_view, cloud_height, cos_view_at_cloud):
+    """Transmittance camera -> cloud as the difference of the net densities to the top from the
+    ray's lower end and from its upper end, both looking up along it (from above the layer, the
+    cloud is the lower end). Rays that meet a cloud never run into the ground, so the difference
+    needs none of aerial.segment_transmittance's care (reversed rays, a quadrature at the
+    horizon), which was a third of the cloud group's nodes."""
+    params = luts.params
+    camera_height = min(camera_height, params.atmosphere_height)
+    cos_view = np.asarray(cos_view, dtype=np.float64)
+    down = cos_view < 0
+    near_h, far_h = np.where(down, cloud_height, camera_height), np.where(down, camera_height, cloud_height)
+    near_c = np.where(down, -cos_view_at_cloud, cos_view)
+    far_c = np.where(down, -cos_view, cos_view_at_cloud)
+    net = (luts.net_density_to_top(near_h, np.clip(near_c, -1.0, 1.0)).astype(np.float64)
+           - luts.net_density_to_top(far_h, np.clip(far_c, -1.0, 1.0)))
+    return np.exp(-np.minimum(np.maximum(net, 0.0) @ params.extinction_matrix(), 80.0))
 
 
 def composite(clear_sky, scattering_scale, sun_strength, cloud: CloudView):
