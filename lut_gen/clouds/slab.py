@@ -23,10 +23,8 @@ import os
 
 import numpy as np
 
-# Water-droplet clouds scatter strongly forward (asymmetry ~0.85) with a weak backward glory;
-# two Henyey-Greenstein lobes (weight, g) keep the silver lining and a little back-glow.
-PHASE_LOBES = ((0.9, 0.8), (0.1, -0.3))
-ASYMMETRY = sum(w * g for w, g in PHASE_LOBES)
+from ..model.cloud_medium import ASYMMETRY, PHASE_LOBES, phase  # noqa: F401 (slab.phase, slab.PHASE_LOBES)
+
 FOURIER_TERMS = 3       # the higher orders' azimuthal cosine series: 1, cos(phi), cos(2 phi)
 MIN_COS = 0.02          # grazing rays: cosines below this are held here (a slab's path is finite)
 
@@ -35,16 +33,6 @@ MIN_COS = 0.02          # grazing rays: cosines below this are held here (a slab
 TABLE_TAUS = tuple(2.0 ** k for k in range(-2, 7))
 TABLE_COS = tuple(np.round(np.linspace(0.05, 1.0, 8), 4))
 TABLE_PATH = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "higher_orders.json")
-
-
-def henyey_greenstein(cos_theta, g):
-    return (1.0 - g * g) / (4.0 * np.pi * np.power(1.0 + g * g - 2.0 * g * cos_theta, 1.5))
-
-
-def phase(cos_theta):
-    """The cloud phase function (per steradian, integrates to 1) of the scattering angle's cosine."""
-    cos_theta = np.asarray(cos_theta, dtype=np.float64)
-    return sum(w * henyey_greenstein(cos_theta, g) for w, g in PHASE_LOBES)
 
 
 SERIES_BELOW = 1e-3     # |b - a| under which _exp_ratio takes its series (float32-safe in the nodes)

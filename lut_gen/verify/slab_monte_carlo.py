@@ -2,7 +2,7 @@
 (lut_gen/clouds/slab.py) is checked against.
 
 A plane-parallel slab of optical thickness ``tau`` (no absorption unless ``albedo`` < 1) with
-the cloud phase function of lut_gen.clouds.slab.phase, lit from above by a collimated beam of
+the cloud phase function of lut_gen.model.cloud_medium, lit from above by a collimated beam of
 unit irradiance (perpendicular to the beam) whose direction makes ``cos_sun`` with the upward
 normal. Photons are walked to every order; each collision adds its next-event estimate of the
 radiance leaving the slab toward a viewer below (looking up) or above (looking down):
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..clouds import slab
+from ..model import cloud_medium
 
 
 @dataclass(frozen=True)
@@ -32,14 +32,14 @@ class SlabRadiance:
 
 
 def _sample_phase(cos_in: np.ndarray, rng) -> np.ndarray:
-    """Scattering-angle cosines drawn from slab.phase (a mix of Henyey-Greenstein lobes)."""
+    """Scattering-angle cosines drawn from cloud_medium.phase (a mix of Henyey-Greenstein lobes)."""
     u = rng.random(cos_in.shape)
     pick = rng.random(cos_in.shape)
-    g = np.full(cos_in.shape, slab.PHASE_LOBES[-1][1])
+    g = np.full(cos_in.shape, cloud_medium.PHASE_LOBES[-1][1])
     cumulative = 0.0
     # Lobes in order: the first whose cumulative weight passes ``pick``.
     chosen = np.zeros(cos_in.shape, dtype=bool)
-    for weight, lobe_g in slab.PHASE_LOBES:
+    for weight, lobe_g in cloud_medium.PHASE_LOBES:
         cumulative += weight
         take = ~chosen & (pick < cumulative)
         g = np.where(take, lobe_g, g)
@@ -94,7 +94,7 @@ def trace(tau: float, cos_sun: float, views: np.ndarray, photons: int = 20000, s
         if hit.size == 0:
             continue
         cos_dv = d[hit] @ views.T                    # (n, V)
-        p = slab.phase(cos_dv) * albedo * weight[hit, None]
+        p = cloud_medium.phase(cos_dv) * albedo * weight[hit, None]
         t = depth[hit, None]
         with np.errstate(divide="ignore", over="ignore"):
             below = np.where(mu_v < 0, np.exp(-(tau - t) / np.abs(mu_v)) / np.abs(mu_v), 0.0)
