@@ -126,7 +126,8 @@ def column_fraction(g, map_image, x, y, scale, offset, coverage):
     off_x, off_y, _ = g.separate(offset)
     tile = g.mul(scale, float(field.TILE_FEATURES))
     uv = g.combine(g.div(g.add(x, off_x), tile), g.div(g.add(y, off_y), tile), 0.0)
-    node = g.node("ShaderNodeTexImage", image=map_image, interpolation="Linear", extension="REPEAT")
+    node = g.node("ShaderNodeTexImage", image=map_image, interpolation="Linear", extension="REPEAT",
+                  label=names.CLOUD_MAP_IMAGE)
     g.feed(node.inputs["Vector"], uv)
     rank = g.separate(node.outputs["Color"])[0]
     threshold = g.mul_add(g.sub(1.0, coverage), 1.0 + field.SOFTNESS, -field.SOFTNESS)

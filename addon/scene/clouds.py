@@ -36,16 +36,35 @@ def _fill(image, rgba):
     image.pack()
 
 
+def _map_intact(image, seed) -> bool:
+    return (image.get(SEED_KEY) == int(seed) and image.packed_file is not None and image.has_data
+            and tuple(image.size) == (field.MAP_SIZE, field.MAP_SIZE))
+
+
 def ensure_map_image(seed: int):
-    """The "OLS Cloud Map" image for ``seed``: generated (0.9 s) only when the seed changed."""
+    """The "OLS Cloud Map" image for ``seed``: generated (0.9 s) only when the seed changed or
+    the image is missing or damaged (the seed makes the same map again), and every cloud group
+    pointed at it."""
     image = _float_image(names.CLOUD_MAP_IMAGE, field.MAP_SIZE, field.MAP_SIZE)
-    if image.get(SEED_KEY) != int(seed) or not image.packed_file:
+    if not _map_intact(image, seed):
         ranks = field.cloud_map(int(seed))
         rgba = np.ones(ranks.shape + (4,), dtype=np.float32)
         rgba[..., :3] = ranks[..., None]
         _fill(image, rgba)
         image[SEED_KEY] = int(seed)
+    _point_groups_at(image)
     return image
+
+
+def _point_groups_at(image):
+    """Image nodes of the cloud groups that lost the map (deleted, replaced) read it again."""
+    for group_name in (names.CLOUDS_GROUP, names.CLOUD_SHADOW_GROUP):
+        tree = bpy.data.node_groups.get(group_name)
+        if tree is None:
+            continue
+        for node in tree.nodes:
+            if node.bl_idname == "ShaderNodeTexImage" and node.label == names.CLOUD_MAP_IMAGE and node.image != image:
+                node.image = image
 
 
 def map_ranks(image) -> np.ndarray:
@@ -187,6 +206,13 @@ def sync(scene):
     if not scene.get(names.WIRED_KEY) or bpy.data.node_groups.get(names.CLOUD_SHADOW_GROUP) is None:
         return
     wire(scene, sun_lamps.find_sun(scene))
+
+
+def repair(scene):
+    """Before the sky is updated (refresh): a set-up scene with clouds on gets its map back if it
+    was deleted or damaged."""
+    if scene.get(names.WIRED_KEY) and getattr(scene, "ols", None) is not None and scene.ols.clouds_enabled:
+        ensure_map_image(seed_of(scene))
 
 
 def numpy_layer(scene):

@@ -78,6 +78,10 @@ def two_stream(tau, cos_sun):
     return reflected, transmitted
 
 
+class CloudTableError(ValueError):
+    """The higher orders' table shipped with lut_gen is missing or damaged."""
+
+
 @functools.lru_cache(maxsize=1)
 def higher_order_ratios() -> np.ndarray:
     """(2, n_tau, n_sun, n_view, 3): [0] seen from below, [1] from above, the cosine-series
@@ -88,11 +92,11 @@ def higher_order_ratios() -> np.ndarray:
             data = json.load(f)
         ratio = np.asarray(data["ratio"], dtype=np.float64)
     except (OSError, ValueError, KeyError) as error:
-        raise RuntimeError(f"the cloud table {TABLE_PATH} is missing or damaged ({error}); "
-                           "reinstall the extension or run scripts/gen_cloud_table.py") from error
+        raise CloudTableError(f"the cloud table {TABLE_PATH} is missing or damaged ({error}); "
+                              "reinstall the extension or run scripts/gen_cloud_table.py") from None
     if ratio.shape != (2, len(TABLE_TAUS), len(TABLE_COS), len(TABLE_COS), FOURIER_TERMS) or not np.all(np.isfinite(ratio)):
-        raise RuntimeError(f"the cloud table {TABLE_PATH} has the wrong shape or non-finite values; "
-                           "run scripts/gen_cloud_table.py")
+        raise CloudTableError(f"the cloud table {TABLE_PATH} has the wrong shape or non-finite values; "
+                              "reinstall the extension or run scripts/gen_cloud_table.py")
     ratio.flags.writeable = False
     return ratio
 

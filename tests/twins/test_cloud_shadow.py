@@ -87,3 +87,30 @@ def test_the_layer_is_invisible_and_leaves_with_unwiring(addon_package, tmp_path
     assert not layer.visible_camera and layer.visible_shadow
     extension_module("addon.scene.clouds").remove_shadow_layer()
     assert "OLS Cloud Shadows" not in bpy.data.objects
+
+
+def test_a_deleted_cloud_map_comes_back_from_the_seed(addon_package, tmp_path):
+    scene = empty_scene(width=16, height=16, samples=1)
+    plain_under_clouds(scene, 40.0, 0.5, seed=9)
+    clouds = extension_module("addon.scene.clouds")
+    before = clouds.map_ranks(bpy.data.images["OLS Cloud Map"])
+    bpy.data.images.remove(bpy.data.images["OLS Cloud Map"])
+    clouds.ensure_map_image(9)
+    image = bpy.data.images["OLS Cloud Map"]
+    np.testing.assert_array_equal(clouds.map_ranks(image), before)
+    shadow_tree = bpy.data.node_groups["OLS Cloud Shadow"]
+    assert [n.image for n in shadow_tree.nodes if n.label == "OLS Cloud Map"] == [image]
+
+
+def test_a_damaged_cloud_table_is_a_clear_error(addon_package, tmp_path, monkeypatch):
+    slab = addon_package.lut_gen.clouds.slab
+    broken = tmp_path / "higher_orders.json"
+    broken.write_text('{"ratio": [1, 2')
+    monkeypatch.setattr(slab, "TABLE_PATH", str(broken))
+    slab.higher_order_ratios.cache_clear()
+    try:
+        with pytest.raises(ValueError, match="cloud table .* missing or damaged"):
+            slab.table_pixels()
+    finally:
+        monkeypatch.undo()
+        slab.higher_order_ratios.cache_clear()

@@ -294,6 +294,7 @@ def refresh(scene, force=False):
             set_origin_transmittance(group, sun.data.color)
     compositor.sync_settings(scene)
     frame_update.write_frame_values(scene)
+    clouds.repair(scene)
     position = scene.camera.matrix_world.translation if scene.camera else (0.0, 0.0, 0.0)
     skylight.update(info, sun_lamps.direction_to_sun(sun), position[2], force, clouds=clouds.numpy_layer(scene),
                     camera_xy=(position[0], position[1]))
