@@ -205,7 +205,10 @@ def sync(scene):
     layer in or out (the groups read the image in place)."""
     if not scene.get(names.WIRED_KEY) or bpy.data.node_groups.get(names.CLOUD_SHADOW_GROUP) is None:
         return
-    wire(scene, sun_lamps.find_sun(scene))
+    if scene.ols.clouds_enabled:
+        wire(scene, sun_lamps.find_sun(scene))
+    else:
+        remove_shadow_layer()       # the map for a new seed is made when the clouds come on
 
 
 def repair(scene):

@@ -35,7 +35,7 @@ class CloudView:
     hit: np.ndarray            # (...) the ray meets a cloud column (before the ground)
     alpha: np.ndarray          # (...) the fraction of the light behind the cloud it hides
     light: np.ndarray          # (..., 3) C: the cloud's own light per unit sun (sun + ambient)
-    air: np.ndarray            # (..., 3) T: transmittance camera -> P
+    air: np.ndarray            # (..., 3) T: transmittance camera -> P (1 where no cloud is met)
     sky_behind: np.ndarray     # (..., 3) S_P: the sky's radiance from P on (the table's, per unit sun)
 
 
@@ -54,31 +54,36 @@ def view(luts: Luts, layer: CloudLayer, cloud, camera_height: float, directions,
     distance, hit = middle_hit(layer, height, directions, params.earth_radius)
     hit = hit & ~(ground.hits_ground(params, min(height, params.atmosphere_height), directions[..., 2])
                   & (height < layer.middle))
-    point = np.array([0.0, 0.0, height]) + directions * distance[..., None]
+    # Only the rays that meet the layer are shaded (the lighting panorama's lower half never does).
+    rays, distance = directions[hit], distance[hit]
+    point = np.array([0.0, 0.0, height]) + rays * distance[:, None]
     radius = params.earth_radius + layer.middle
     centre_to_point = point + np.array([0.0, 0.0, params.earth_radius])
-    cos_view = (directions * centre_to_point).sum(-1) / radius
+    cos_view = (rays * centre_to_point).sum(-1) / radius
     cos_sun = centre_to_point @ sun / radius
-    cos_sun_view = directions @ sun
-    fraction = column_fraction(layer, cloud, point[..., 0] + camera_xy[0], point[..., 1] + camera_xy[1])
-    tau = layer.density * layer.thickness * fraction * hit
+    cos_sun_view = rays @ sun
+    fraction = column_fraction(layer, cloud, point[:, 0] + camera_xy[0], point[:, 1] + camera_xy[1])
+    tau = layer.density * layer.thickness * fraction
     abs_view = np.maximum(np.abs(cos_view), slab.MIN_COS)
     abs_sun = np.abs(cos_sun)
-    alpha = -np.expm1(-tau / abs_view)
     # The sun on the viewer's side of the slab: seen from below (looking up) with the sun under
     # the cloud's horizontal, or from above with it over.
     reflected = (cos_view * cos_sun) < 0
     cos_az = slab.cos_azimuth(cos_view, cos_sun, cos_sun_view)
     sun_light = luts.transmittance_to_top(layer.middle, cos_sun) * slab.radiance(
-        tau, abs_sun, abs_view, cos_sun_view, cos_az, reflected)[..., None]
+        tau, abs_sun, abs_view, cos_sun_view, cos_az, reflected)[:, None]
     back, through = slab.diffuse_two_stream(tau)
     ambient = luts.ambient_skylight(np.clip(cos_sun, -1.0, 1.0)) / np.pi * np.where(
-        cos_view > 0, through, back)[..., None]
-    light = (sun_light + ambient) * hit[..., None]
-    air = air_to_cloud(luts, height, directions[..., 2], layer.middle, cos_view)
-    sky_behind = luts.sky_radiance(layer.middle, np.clip(cos_view, -1.0, 1.0), np.clip(cos_sun, -1.0, 1.0),
-                                   cos_sun_view)
-    return CloudView(hit, alpha * hit, light, air, sky_behind * hit[..., None])
+        cos_view > 0, through, back)[:, None]
+    shape = directions.shape[:-1]
+    alpha, light = np.zeros(shape), np.zeros(shape + (3,))
+    air, sky_behind = np.ones(shape + (3,)), np.zeros(shape + (3,))
+    alpha[hit] = -np.expm1(-tau / abs_view)
+    light[hit] = sun_light + ambient
+    air[hit] = air_to_cloud(luts, height, rays[:, 2], layer.middle, cos_view)
+    sky_behind[hit] = luts.sky_radiance(layer.middle, np.clip(cos_view, -1.0, 1.0), np.clip(cos_sun, -1.0, 1.0),
+                                        cos_sun_view)
+    return CloudView(hit, alpha, light, air, sky_behind)
 
 
 def air_to_cloud(luts: Luts, camera_height, cos_view, cloud_height, cos_view_at_cloud):

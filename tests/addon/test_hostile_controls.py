@@ -20,7 +20,10 @@ pytestmark = pytest.mark.bpy
 # pixels resolve (lut_gen.passes.render_detail: the 4096-texel maps and 2048 x 2048 tables cost
 # 5-22 s a frame at 64 x 36), and the epipolar layout builds and packs no shadow-map atlas.
 # A combination with the shafts off costs about 0.2 s, with them on 0.5-1.5 s (a layout
-# rebuild, the shadow maps and the epipolar tables). OLS_FUZZ_COMBINATIONS=N runs N instead.
+# rebuild, the shadow maps and the epipolar tables). With the cloud controls in the draw
+# (2026-12-02) 40 combinations took 60 s: clouds on half the time add the cloud map for a new
+# seed (0.36 s), the lighting panorama's clouds (0.25 s) and a bigger world shader to sync.
+# OLS_FUZZ_COMBINATIONS=N runs N instead.
 FUZZ_COMBINATIONS = int(os.environ.get("OLS_FUZZ_COMBINATIONS", "200"))
 WIDTH, HEIGHT = 64, 36
 
