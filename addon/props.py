@@ -43,7 +43,7 @@ def _sync_compositor(settings, context):
 
 
 def _sync_clouds(settings, context):
-    """The cloud map follows the seed (0.9 s to make), and the world its on/off switch."""
+    """The cloud map follows the seed (0.36 s to make) and the shadow layer the on/off switch."""
     if context.scene is not None:
         clouds.sync(context.scene)
 

@@ -65,8 +65,7 @@ def _single_scattering(g, tau, mu_s, mu_v, cos_sun_view, reflected):
 
 def _two_stream(g, tau, mu_s):
     """slab.two_stream: (reflected, diffusely transmitted) flux fractions."""
-    f = slab.ASYMMETRY ** 2
-    asym = (slab.ASYMMETRY - f) / (1.0 - f)
+    f, asym = slab.DELTA_FRACTION, slab.SCALED_ASYMMETRY
     gamma1 = 0.75 * (1.0 - asym)
     scaled = g.mul(tau, 1.0 - f)
     gamma3 = g.mul_add(mu_s, -3.0 * asym / 4.0, 0.5)
@@ -79,8 +78,7 @@ def _two_stream(g, tau, mu_s):
 
 def _diffuse_two_stream(g, tau):
     """slab.diffuse_two_stream."""
-    f = slab.ASYMMETRY ** 2
-    asym = (slab.ASYMMETRY - f) / (1.0 - f)
+    f, asym = slab.DELTA_FRACTION, slab.SCALED_ASYMMETRY
     x = g.mul(tau, 0.75 * (1.0 - asym) * (1.0 - f))
     back = g.div(x, g.add(x, 1.0))
     through = g.math("MAXIMUM", g.sub(g.sub(1.0, back), g.math("EXPONENT", g.mul(tau, -2.0))), 0.0)

@@ -13,9 +13,11 @@ from . import names
 from . import sun as sun_lamps
 from .setup import drivers
 
-# Sky-group input <- scene.ols control (the offset's two components are driven one by one).
-SKY_INPUTS = {"Cloud Coverage": "cloud_coverage", "Cloud Base": "cloud_base",
-              "Cloud Thickness": "cloud_thickness", "Cloud Density": "cloud_density", "Cloud Scale": "cloud_scale"}
+# Cloud-group input <- scene.ols control, shared by the sky group (as "Cloud <input>") and the
+# shadow layer's group (which has no Base: its plane sits at the layer's height). The offset's
+# two components are driven one by one.
+CLOUD_CONTROLS = {"Coverage": "cloud_coverage", "Base": "cloud_base", "Thickness": "cloud_thickness",
+                  "Density": "cloud_density", "Scale": "cloud_scale"}
 
 SEED_KEY = "ols_cloud_seed"         # the seed the map image holds
 
@@ -42,7 +44,7 @@ def _map_intact(image, seed) -> bool:
 
 
 def ensure_map_image(seed: int):
-    """The "OLS Cloud Map" image for ``seed``: generated (0.9 s) only when the seed changed or
+    """The "OLS Cloud Map" image for ``seed``: generated (0.36 s) only when the seed changed or
     the image is missing or damaged (the seed makes the same map again), and every cloud group
     pointed at it."""
     image = _float_image(names.CLOUD_MAP_IMAGE, field.MAP_SIZE, field.MAP_SIZE)
@@ -101,10 +103,16 @@ def drive_sky_inputs(group, scene):
     drivers.drive_switch(group.inputs["Clouds"], scene, "clouds_enabled")
     for axis in range(2):
         drivers.drive_camera_axis(group.inputs["Camera XY"], axis, scene)
-    for socket, name in SKY_INPUTS.items():
-        drivers.drive_scene_setting(group.inputs[socket], scene, name)
+    _drive_cloud_controls(group, scene, "Cloud ")
+
+
+def _drive_cloud_controls(group, scene, prefix: str):
+    """Drivers from the cloud controls onto those of ``group``'s inputs named prefix + input."""
+    for socket, name in CLOUD_CONTROLS.items():
+        if prefix + socket in group.inputs:
+            drivers.drive_scene_setting(group.inputs[prefix + socket], scene, name)
     for axis in range(2):
-        drivers.drive_vector_setting(group.inputs["Cloud Offset"], axis, scene, "cloud_offset")
+        drivers.drive_vector_setting(group.inputs[prefix + "Offset"], axis, scene, "cloud_offset")
 
 
 # The shadow layer's half size: it must hold the sun line of every point the camera sees
@@ -133,11 +141,7 @@ def _shadow_material(sun, scene):
     output = tree.nodes.new("ShaderNodeOutputMaterial")
     tree.links.new(group.outputs["Shader"], output.inputs["Surface"])
     drivers.drive_sun_direction(group.inputs["Sun Direction"], sun)
-    for socket, name in (("Coverage", "cloud_coverage"), ("Thickness", "cloud_thickness"),
-                         ("Density", "cloud_density"), ("Scale", "cloud_scale")):
-        drivers.drive_scene_setting(group.inputs[socket], scene, name)
-    for axis in range(2):
-        drivers.drive_vector_setting(group.inputs["Offset"], axis, scene, "cloud_offset")
+    _drive_cloud_controls(group, scene, "")
     # EEVEE: shadows through the material's transparency.
     if hasattr(material, "use_transparent_shadow"):
         material.use_transparent_shadow = True
@@ -161,22 +165,11 @@ def ensure_shadow_layer(scene, sun):
     obj.visible_shadow = True
     obj.hide_select = True
     obj.driver_remove("location", 2)
-    curve = obj.driver_add("location", 2)
-    driver = curve.driver
-    driver.type = "SCRIPTED"
-    for var_name, prop in (("b", "cloud_base"), ("t", "cloud_thickness")):
-        var = driver.variables.new()
-        var.name = var_name
-        var.targets[0].id_type = "SCENE"
-        var.targets[0].id = scene
-        var.targets[0].data_path = f"ols.{prop}"
-    low, high = layer_ranges()
-    driver.expression = f"min(max(b, {low[0]!r}), {low[1]!r}) + 0.5 * min(max(t, {high[0]!r}), {high[1]!r})"
+    (_, *base), (_, *thickness) = RANGES["base"], RANGES["thickness"]
+    drivers.drive_expression(obj, "location", 2, {"b": (scene, "SCENE", "ols.cloud_base"),
+                                                  "t": (scene, "SCENE", "ols.cloud_thickness")},
+                             f"min(max(b, {base[0]!r}), {base[1]!r}) + 0.5 * min(max(t, {thickness[0]!r}), {thickness[1]!r})")
     return obj
-
-
-def layer_ranges():
-    return RANGES["base"][1:], RANGES["thickness"][1:]
 
 
 def remove_shadow_layer():

@@ -64,12 +64,17 @@ def single_scattering(tau, cos_sun, cos_view, cos_sun_view, below: bool):
     return p * mu_s / (mu_s + mu_v) * -np.expm1(-tau * (1.0 / mu_s + 1.0 / mu_v))
 
 
+# Delta-Eddington scaling: the forward peak's share f = g^2 goes straight on, the rest scatters
+# with the reduced asymmetry.
+DELTA_FRACTION = ASYMMETRY ** 2
+SCALED_ASYMMETRY = (ASYMMETRY - DELTA_FRACTION) / (1.0 - DELTA_FRACTION)
+
+
 def two_stream(tau, cos_sun):
     """(reflected, diffusely transmitted) flux per unit incident flux of a conservative slab,
     delta-Eddington. The direct beam exp(-tau / mu_s) is not in either."""
     mu_s = np.maximum(cos_sun, MIN_COS)
-    f = ASYMMETRY ** 2
-    g = (ASYMMETRY - f) / (1.0 - f)
+    f, g = DELTA_FRACTION, SCALED_ASYMMETRY
     tau_scaled = (1.0 - f) * tau
     gamma1 = 0.75 * (1.0 - g)
     gamma3 = (2.0 - 3.0 * g * mu_s) / 4.0
@@ -114,42 +119,40 @@ def table_coordinates(tau, cos_sun, cos_view):
     return low, x_tau - low, texel(cos_sun), texel(cos_view)
 
 
-def _bilinear(block, ts, tv):
-    """Bilinear look-up of (n_sun, n_view, terms) ``block`` at texel coordinates (Blender's Linear)."""
+def _bilinear(table, side, node, ts, tv):
+    """Bilinear look-up (Blender's Linear) of the (n_sun, n_view, terms) blocks
+    ``table[side, node]``, per element, at texel coordinates (ts, tv)."""
     fs, fv = ts - 0.5, tv - 0.5
-    s0 = np.clip(np.floor(fs), 0, block.shape[0] - 2).astype(int)
-    v0 = np.clip(np.floor(fv), 0, block.shape[1] - 2).astype(int)
-    ws, wv = (fs - s0)[:, None], (fv - v0)[:, None]
-    return ((1 - ws) * ((1 - wv) * block[s0, v0] + wv * block[s0, v0 + 1])
-            + ws * ((1 - wv) * block[s0 + 1, v0] + wv * block[s0 + 1, v0 + 1]))
+    s0 = np.clip(np.floor(fs), 0, table.shape[2] - 2).astype(int)
+    v0 = np.clip(np.floor(fv), 0, table.shape[3] - 2).astype(int)
+    ws, wv = (fs - s0)[..., None], (fv - v0)[..., None]
+    return ((1 - ws) * ((1 - wv) * table[side, node, s0, v0] + wv * table[side, node, s0, v0 + 1])
+            + ws * ((1 - wv) * table[side, node, s0 + 1, v0] + wv * table[side, node, s0 + 1, v0 + 1]))
 
 
-def higher_orders(tau, cos_sun, cos_view, cos_azimuth, reflected: bool):
+def higher_orders(tau, cos_sun, cos_view, cos_azimuth, reflected):
     """Second and higher orders leaving the slab toward the viewer, per unit sun irradiance: the
     delta-Eddington diffuse flux spread with the Monte Carlo table's angular shape.
     ``cos_azimuth``: between the line of sight's and the sun's horizontal directions;
-    ``reflected``: the sun on the viewer's side."""
-    tau, cos_sun, cos_view, cos_azimuth = np.broadcast_arrays(
-        *(np.asarray(a, dtype=np.float64) for a in (tau, cos_sun, cos_view, cos_azimuth)))
-    ratio = higher_order_ratios()[1 if reflected else 0]
+    ``reflected`` (per element): the sun on the viewer's side, which picks the table's side."""
+    tau, cos_sun, cos_view, cos_azimuth, reflected = np.broadcast_arrays(
+        *(np.asarray(a, dtype=np.float64) for a in (tau, cos_sun, cos_view, cos_azimuth)), np.asarray(reflected))
+    side = reflected.astype(int)
+    ratio = higher_order_ratios()
     low, weight, ts, tv = table_coordinates(tau, cos_sun, cos_view)
     low = low.astype(int)
-    terms = np.empty(tau.shape + (FOURIER_TERMS,))
-    for node in np.unique(low):
-        at = low == node
-        lower = _bilinear(ratio[node], ts[at], tv[at])
-        upper = _bilinear(ratio[node + 1], ts[at], tv[at])
-        terms[at] = lower + (upper - lower) * weight[at, None]
+    lower = _bilinear(ratio, side, low, ts, tv)
+    upper = _bilinear(ratio, side, low + 1, ts, tv)
+    terms = lower + (upper - lower) * weight[..., None]
     shape = terms[..., 0] + terms[..., 1] * cos_azimuth + terms[..., 2] * (2.0 * cos_azimuth ** 2 - 1.0)
     mu_s = np.maximum(cos_sun, MIN_COS)
     back, through = two_stream(tau, cos_sun)
-    return shape * mu_s * (back if reflected else through) / np.pi
+    return shape * mu_s * np.where(side == 1, back, through) / np.pi
 
 
 def diffuse_two_stream(tau):
     """(reflected, diffusely transmitted) fraction of diffuse (sky) light falling on the slab."""
-    f = ASYMMETRY ** 2
-    g = (ASYMMETRY - f) / (1.0 - f)
+    f, g = DELTA_FRACTION, SCALED_ASYMMETRY
     x = 0.75 * (1.0 - g) * (1.0 - f) * np.asarray(tau, dtype=np.float64)
     reflected = x / (1.0 + x)
     return reflected, np.maximum(1.0 - reflected - np.exp(-2.0 * np.asarray(tau)), 0.0)
@@ -166,9 +169,7 @@ def radiance(tau, cos_sun, cos_view, cos_sun_view, cos_az, reflected):
     """All orders, per unit sun irradiance. ``cos_sun``, ``cos_view``: absolute zenith cosines."""
     single = np.where(reflected, single_scattering(tau, cos_sun, cos_view, cos_sun_view, below=False),
                       single_scattering(tau, cos_sun, cos_view, cos_sun_view, below=True))
-    higher = np.where(reflected, higher_orders(tau, cos_sun, cos_view, cos_az, True),
-                      higher_orders(tau, cos_sun, cos_view, cos_az, False))
-    return single + higher
+    return single + higher_orders(tau, cos_sun, cos_view, cos_az, reflected)
 
 
 def table_pixels() -> np.ndarray:

@@ -7,16 +7,23 @@ from __future__ import annotations
 
 
 def _drive(socket, index, target_id, data_path, id_type=None, expression="v"):
-    curve = socket.driver_add("default_value", index) if index is not None else socket.driver_add("default_value")
+    return drive_expression(socket, "default_value", index, {"v": (target_id, id_type, data_path)}, expression)
+
+
+def drive_expression(owner, prop: str, index, variables, expression):
+    """A scripted driver on ``owner.prop`` (component ``index``, or the whole property if None)
+    with single-property ``variables``: {name: (target ID, its id_type or None, data path)}."""
+    curve = owner.driver_add(prop, index) if index is not None else owner.driver_add(prop)
     driver = curve.driver
     driver.type = "SCRIPTED"
-    variable = driver.variables.new()
-    variable.name = "v"
-    variable.type = "SINGLE_PROP"
-    if id_type:
-        variable.targets[0].id_type = id_type
-    variable.targets[0].id = target_id
-    variable.targets[0].data_path = data_path
+    for name, (target_id, id_type, data_path) in variables.items():
+        variable = driver.variables.new()
+        variable.name = name
+        variable.type = "SINGLE_PROP"
+        if id_type:
+            variable.targets[0].id_type = id_type
+        variable.targets[0].id = target_id
+        variable.targets[0].data_path = data_path
     driver.expression = expression
     return curve
 
