@@ -24,6 +24,22 @@ def empty_scene(engine="CYCLES", width=128, height=64, samples=16):
     return scene
 
 
+def world_of_group(scene, group_tree, name="OLS Test World"):
+    """A new world for ``scene`` whose background is the shader group ``group_tree``'s
+    "Background" output; returns the group node (to set its inputs)."""
+    import bpy
+    world = bpy.data.worlds.new(name)
+    scene.world = world
+    world.use_nodes = True
+    tree = world.node_tree
+    tree.nodes.clear()
+    group = tree.nodes.new("ShaderNodeGroup")
+    group.node_tree = group_tree
+    output = tree.nodes.new("ShaderNodeOutputWorld")
+    tree.links.new(group.outputs["Background"], output.inputs["Surface"])
+    return group
+
+
 def panorama_camera(scene):
     """Equirectangular camera looking along +Y: pixel (row from top y, column x) sees
     longitude ((x + 0.5) / W - 0.5) 2 pi (toward +X) and latitude (0.5 - (y + 0.5) / H) pi."""

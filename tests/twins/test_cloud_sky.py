@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from render_util import empty_scene, panorama_camera, panorama_directions, render_rgb, save_png
+from render_util import empty_scene, panorama_camera, panorama_directions, render_rgb, save_png, world_of_group
 from extension import extension_module
 
 bpy = pytest.importorskip("bpy")
@@ -34,15 +34,7 @@ def build_cloudy_world(pkg, bake_dir, sun, camera_height, layer, clouds_on=1.0):
                                          images["ambient"], luts.params, lookup)
     sky = nodes.build_sky_group(images["optical_depth"], luts.params, skylight.ensure_image(), images["ambient"],
                                 skylight.ensure_ground_image(), clouds_tree=cloud_tree)
-    world = bpy.data.worlds.new("OLS Cloud Test World")
-    bpy.context.scene.world = world
-    world.use_nodes = True
-    tree = world.node_tree
-    tree.nodes.clear()
-    group = tree.nodes.new("ShaderNodeGroup")
-    group.node_tree = sky
-    output = tree.nodes.new("ShaderNodeOutputWorld")
-    tree.links.new(group.outputs["Background"], output.inputs["Surface"])
+    group = world_of_group(bpy.context.scene, sky)
     values = {"Sun Direction": sun, "Camera Height": camera_height, "Sun Strength": STRENGTH,
               "Scattering Scale": SCALE, "Sun Angle": math.radians(0.545), "Clouds": clouds_on,
               "Cloud Coverage": layer.coverage, "Cloud Base": layer.base, "Cloud Thickness": layer.thickness,

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from render_util import empty_scene, panorama_camera, panorama_directions, render_rgb, save_png
+from render_util import empty_scene, panorama_camera, panorama_directions, render_rgb, save_png, world_of_group
 from extension import extension_module
 
 bpy = pytest.importorskip("bpy")
@@ -29,15 +29,7 @@ def build_world(pkg, bake_dir, sun_direction, camera_height):
     skylight = extension_module("addon.scene.frame.skylight")
     sky = nodes.build_sky_group(images["optical_depth"], luts.params, skylight.ensure_image(), images["ambient"],
                                 skylight.ensure_ground_image())
-    world = bpy.data.worlds.new("OLS Test World")
-    scene.world = world
-    world.use_nodes = True
-    tree = world.node_tree
-    tree.nodes.clear()
-    group = tree.nodes.new("ShaderNodeGroup")
-    group.node_tree = sky
-    output = tree.nodes.new("ShaderNodeOutputWorld")
-    tree.links.new(group.outputs["Background"], output.inputs["Surface"])
+    group = world_of_group(scene, sky)
     group.inputs["Sun Direction"].default_value = sun_direction
     group.inputs["Camera Height"].default_value = camera_height
     group.inputs["Sun Strength"].default_value = STRENGTH
