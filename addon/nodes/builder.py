@@ -126,21 +126,25 @@ class Graph:
             self.feed(node.inputs[name.replace("_", " ").title()], value)
         return node.outputs
 
-    def image(self, image: bpy.types.Image, uv, interpolation: str = "Linear"):
+    def image(self, image: bpy.types.Image, uv, interpolation: str = "Linear", repeat: bool = False):
         """Colour of ``image`` at texture coordinates ``uv`` (Linear or Closest filtering, edges
-        extended). Shader trees use an Image Texture node, compositor trees a Map UV node."""
+        extended, or wrapping with ``repeat``). Shader trees use an Image Texture node,
+        compositor trees a Map UV node; the image's node is labelled with its name, so code
+        that repairs a group can find it."""
         if self.tree.bl_idname == "CompositorNodeTree":
             source = self._image_sources.get(image.name)
             if source is None:
-                source = self._image_sources[image.name] = self.node("CompositorNodeImage", image=image)
+                source = self._image_sources[image.name] = self.node("CompositorNodeImage", image=image,
+                                                                     label=image.name)
             node = self.node("CompositorNodeMapUV")
             self.links.new(source.outputs["Image"], node.inputs["Image"])
             node.inputs["Interpolation"].default_value = "Bilinear" if interpolation == "Linear" else "Nearest"
-            node.inputs["Extension X"].default_value = "Extend"
-            node.inputs["Extension Y"].default_value = "Extend"
+            node.inputs["Extension X"].default_value = "Repeat" if repeat else "Extend"
+            node.inputs["Extension Y"].default_value = "Repeat" if repeat else "Extend"
             self.feed(node.inputs["UV"], uv)
             return node.outputs["Image"]
-        node = self.node("ShaderNodeTexImage", image=image, interpolation=interpolation, extension="EXTEND")
+        node = self.node("ShaderNodeTexImage", image=image, interpolation=interpolation,
+                         extension="REPEAT" if repeat else "EXTEND", label=image.name)
         self.feed(node.inputs["Vector"], uv)
         return node.outputs["Color"]
 

@@ -124,11 +124,14 @@ def column_fraction(g, map_image, x, y, scale, offset, coverage):
     off_x, off_y, _ = g.separate(offset)
     tile = g.mul(scale, float(field.TILE_FEATURES))
     uv = g.combine(g.div(g.add(x, off_x), tile), g.div(g.add(y, off_y), tile), 0.0)
-    node = g.node("ShaderNodeTexImage", image=map_image, interpolation="Linear", extension="REPEAT",
-                  label=names.CLOUD_MAP_IMAGE)
-    g.feed(node.inputs["Vector"], uv)
-    rank = g.separate(node.outputs["Color"])[0]
     threshold = g.mul_add(g.sub(1.0, coverage), 1.0 + field.SOFTNESS, -field.SOFTNESS)
+    return thickness_fraction(g, map_image, uv, threshold)
+
+
+def thickness_fraction(g, map_image, uv, threshold):
+    """field.thickness_fraction of the map's rank at map coordinates ``uv`` (wrapping), for
+    shader and compositor trees alike."""
+    rank = g.separate(g.image(map_image, uv, repeat=True))[0]
     return g.clamp(g.div(g.sub(rank, threshold), field.SOFTNESS), 0.0, 1.0)
 
 
@@ -144,6 +147,21 @@ def _air_to_cloud(g, image, height, cos_view, cloud_height, cos_at_cloud, params
     return transmittance_from_net_density(g, *[g.math("MAXIMUM", g.sub(a, b), 0.0) for a, b in zip(near, far)], params)
 
 
+def middle_hit(g, height, middle, view_z, earth_radius):
+    """lut_gen.clouds.layer.middle_hit, cancellation-free: (distance, meets 0/1, the ray's
+    (R + h) cos term, which the caller reuses)."""
+    b = g.mul(g.add(height, earth_radius), view_z)
+    q = g.mul(g.sub(middle, height), g.add(g.add(height, middle), 2.0 * earth_radius))
+    disc = g.mul_add(b, b, q)
+    root = g.math("SQRT", g.math("MAXIMUM", disc, 0.0))
+    upward = g.div(q, g.math("MAXIMUM", g.add(b, root), 1e-9))
+    downward = g.div(g.mul(q, -1.0), g.math("MAXIMUM", g.sub(root, b), 1e-9))
+    below = g.math("GREATER_THAN", q, 0.0)
+    distance = g.select(downward, upward, below)
+    goes_down = g.mul(g.math("GREATER_THAN", disc, -1e-30), g.math("LESS_THAN", view_z, 0.0))
+    return distance, g.select(goes_down, 1.0, below), b
+
+
 def build_cloud_group(map_image, table_image, optical_image, ambient_image, params, lookup_tree):
     tree = new_group(names.CLOUDS_GROUP)
     g, gin, gout = group_io(tree, INPUTS, OUTPUTS)
@@ -154,17 +172,7 @@ def build_cloud_group(map_image, table_image, optical_image, ambient_image, para
     earth = params.earth_radius
     middle = g.mul_add(gin.outputs["Thickness"], 0.5, gin.outputs["Base"])
 
-    # layer.middle_hit, cancellation-free.
-    b = g.mul(g.add(height, earth), view_z)
-    q = g.mul(g.sub(middle, height), g.add(g.add(height, middle), 2.0 * earth))
-    disc = g.mul_add(b, b, q)
-    root = g.math("SQRT", g.math("MAXIMUM", disc, 0.0))
-    upward = g.div(q, g.math("MAXIMUM", g.add(b, root), 1e-9))
-    downward = g.div(g.mul(q, -1.0), g.math("MAXIMUM", g.sub(root, b), 1e-9))
-    below = g.math("GREATER_THAN", q, 0.0)
-    distance = g.select(downward, upward, below)
-    goes_down = g.mul(g.math("GREATER_THAN", disc, -1e-30), g.math("LESS_THAN", view_z, 0.0))
-    meets = g.select(goes_down, 1.0, below)
+    distance, meets, b = middle_hit(g, height, middle, view_z, earth)
     hits_ground = g.mul(below_horizon(g, g.math("MINIMUM", height, params.atmosphere_height), view_z, params),
                         g.math("LESS_THAN", height, middle))
     hit = g.mul(meets, g.sub(1.0, hits_ground))

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 from ...lut_gen.passes import shadow_map, shaft_boundary
 from ...lut_gen.passes.shadow_map import MIN_FORWARD_COSINE
-from . import epipolar
+from . import cloud_shafts, epipolar
 from .aerial import PASS_INPUTS
 from .builder import group_io, new_group
 from .inscattering import section_node
@@ -44,6 +44,7 @@ class ShaftLayout:
     resolution: int = 1024
     technique: str = "BRUTE_FORCE"
     show_cascades: bool = False     # the tint costs a shadow test per pixel: built only when shown
+    clouds: bool = False            # the cloud layer shadows the air (lut_gen.clouds.shafts)
 
     @property
     def epipolar(self) -> bool:
@@ -65,7 +66,7 @@ class ShaftLayout:
         steps = 0 if technique == "EPIPOLAR_SAMPLING" else settings.num_integration_steps
         return cls(steps, settings.num_cascades, settings.single_scattering_mode, settings.multiple_scattering_mode,
                    settings.smooth_shadows, settings.best_cascade_search, int(settings.shadow_map_resolution),
-                   technique, settings.show_cascades)
+                   technique, settings.show_cascades, bool(getattr(settings, "clouds_enabled", False)))
 
     def as_key(self) -> str:
         return repr(tuple(self.__dict__.values()))
@@ -87,11 +88,17 @@ SHARED_INPUTS = [
 ]
 
 
-def build_shadow_test_group(layout: ShaftLayout, atlas_image, parameter_image):
-    """"OLS Shadow Test": the sun visibility of a world point (1 lit, 0 shadowed, PCF fractions)
-    and its cascade. Twin: lut_gen.passes.shadow_map.visibility and select_cascade."""
+def test_inputs(layout: ShaftLayout):
+    """The inputs every group that runs shadow tests takes and hands on to "OLS Shadow Test"."""
+    return SHARED_INPUTS + cascade_inputs(layout.cascades) + (cloud_shafts.INPUTS if layout.clouds else [])
+
+
+def build_shadow_test_group(layout: ShaftLayout, atlas_image, parameter_image, cloud_map=None):
+    """"OLS Shadow Test": the sun visibility of a world point (1 lit, 0 shadowed, PCF fractions,
+    times the cloud's transmittance with clouds on) and its cascade. Twin:
+    lut_gen.passes.shadow_map.visibility and select_cascade (and lut_gen.clouds.shafts.sun_visibility)."""
     tree = new_group(names.SHADOW_TEST_GROUP, "CompositorNodeTree")
-    inputs = [("Point", "NodeSocketVector", (0.0, 0.0, 0.0))] + SHARED_INPUTS + cascade_inputs(layout.cascades)
+    inputs = [("Point", "NodeSocketVector", (0.0, 0.0, 0.0))] + test_inputs(layout)
     g, gin, gout = group_io(tree, inputs, [("Lit", "NodeSocketFloat", None), ("Cascade", "NodeSocketFloat", None)])
     n = layout.cascades
     point = gin.outputs["Point"]
@@ -161,7 +168,11 @@ def build_shadow_test_group(layout: ShaftLayout, atlas_image, parameter_image):
             passes = g.mul(passes, g.mul(weights[dx][0], weights[dy][1]))
         lit = g.add(lit, passes)
     tested = g.math("LESS_THAN", index, n - 0.5)
-    g.links.new(g.lerp(1.0, lit, tested), gout.inputs["Lit"])
+    lit = g.lerp(1.0, lit, tested)
+    if layout.clouds:
+        lit = g.mul(lit, cloud_shafts.sun_transmittance(g, cloud_map, point, g.vmath("NORMALIZE", gin.outputs["Sun Direction"]),
+                                                       gin.outputs["Cloud Layer"], gin.outputs["Cloud Map"]))
+    g.links.new(lit, gout.inputs["Lit"])
     return tree
 
 
@@ -208,16 +219,16 @@ MAIN_INPUTS = PASS_INPUTS + [
 
 
 def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params, layout: ShaftLayout,
-                             epipolar_images=(None, None, None, {})):
+                             epipolar_images=(None, None, None, {}), cloud_map=None):
     """(Re)build "OLS Light Shafts" and its sub-groups for ``layout``; the epipolar technique
     reads ``epipolar_images`` (lit, integral or None, sampling overlay, {name: in-scattering
-    image}) instead of marching."""
-    shadow_test_tree = (build_shadow_test_group(layout, atlas_image, parameter_image)
+    image}) instead of marching; with clouds the shadow test reads ``cloud_map``."""
+    shadow_test_tree = (build_shadow_test_group(layout, atlas_image, parameter_image, cloud_map)
                         if layout.reads_shadow_maps else None)
     tree = new_group(names.LIGHT_SHAFTS_GROUP, "CompositorNodeTree")
     tree[names.LAYOUT_KEY] = layout.as_key()
     tree[names.READS_SHADOW_MAPS_KEY] = layout.reads_shadow_maps
-    inputs = MAIN_INPUTS + SHARED_INPUTS + cascade_inputs(layout.cascades) + (epipolar.INPUTS if layout.epipolar else [])
+    inputs = MAIN_INPUTS + test_inputs(layout) + (epipolar.INPUTS if layout.epipolar else [])
     g, gin, gout = group_io(tree, inputs, [("Image", "NodeSocketColor", None)])
     camera, forward = gin.outputs["Camera Position"], gin.outputs["Camera Forward"]
     sun = g.vmath("NORMALIZE", gin.outputs["Sun Direction"])
@@ -234,6 +245,9 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     pixel_direction = g.vmath("NORMALIZE", g.vmath("ADD", g.vmath("ADD", g.vscale(gin.outputs["Camera Right"], local[0]),
                                                                    g.vscale(gin.outputs["Camera Up"], local[1])), forward))
     along = g.div(gin.outputs["Far Depth"], g.math("MAXIMUM", g.vmath("DOT_PRODUCT", pixel_direction, forward), MIN_FORWARD_COSINE))
+    if layout.clouds:           # on to the cloud the sky shows (lut_gen.clouds.shafts)
+        along = g.math("MAXIMUM", along, cloud_shafts.march_distance(g, camera, pixel_direction, gin.outputs["Cloud Layer"],
+                                                                     params.earth_radius))
     geometry = g.math("LESS_THAN", gin.outputs["Depth"], gin.outputs["Sky Depth"])
     end = g.vlerp(g.vmath("MULTIPLY_ADD", pixel_direction, g.combine(along, along, along), camera),
                   gin.outputs["Position"], geometry)
@@ -245,7 +259,7 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
         node = g.node("CompositorNodeGroup")
         node.node_tree = shadow_test_tree
         g.links.new(point, node.inputs["Point"])
-        for name, *_ in SHARED_INPUTS + cascade_inputs(layout.cascades):
+        for name, *_ in test_inputs(layout):
             g.links.new(gin.outputs[name], node.inputs[name])
         return node
 
@@ -345,7 +359,7 @@ def build_march_chunk_group(name: str, count: int, layout: ShaftLayout, shadow_t
     length (in steps) and lowers the first lit distance; with INTEGRATION each step's single
     scattering is added, the net density carried from step to step."""
     tree = new_group(name, "CompositorNodeTree")
-    inputs = (SHARED_INPUTS + cascade_inputs(layout.cascades) + MARCH_STATE
+    inputs = (test_inputs(layout) + MARCH_STATE
               + [("Direction", "NodeSocketVector", (0.0, 1.0, 0.0)), ("Sun", "NodeSocketVector", (0.0, 0.0, 1.0)),
                  ("Step", "NodeSocketFloat", 1.0), ("First Step", "NodeSocketFloat", 0.0)])
     g, gin, gout = group_io(tree, inputs, MARCH_STATE)
@@ -359,11 +373,11 @@ def build_march_chunk_group(name: str, count: int, layout: ShaftLayout, shadow_t
         test = g.node("CompositorNodeGroup")
         test.node_tree = shadow_test_tree
         g.links.new(point, test.inputs["Point"])
-        for socket, *_ in SHARED_INPUTS + cascade_inputs(layout.cascades):
+        for socket, *_ in test_inputs(layout):
             g.links.new(gin.outputs[socket], test.inputs[socket])
         lit = test.outputs["Lit"]
         state["Lit Length"] = g.add(state["Lit Length"], lit)
-        unlit = g.math("LESS_THAN", lit, 1e-6)
+        unlit = g.math("LESS_THAN", lit, shaft_boundary.LIT_FLOOR)
         index = g.add(gin.outputs["First Step"], float(j))
         start = g.mul(step, index)
         state["First Lit"] = g.math("MINIMUM", state["First Lit"], g.mul_add(unlit, NEVER, start))
@@ -403,7 +417,7 @@ def build_shaft_edge_group(layout: ShaftLayout, shadow_test_tree):
     fraction crosses one half, by shaft_boundary.REFINE_ITERATIONS shadow tests of bisection
     and a linear crossing in the last bracket. Twin: lut_gen.passes.shaft_boundary.refine."""
     tree = new_group(names.SHAFT_EDGE_GROUP, "CompositorNodeTree")
-    inputs = SHARED_INPUTS + cascade_inputs(layout.cascades) + EDGE_INPUTS
+    inputs = test_inputs(layout) + EDGE_INPUTS
     g, gin, gout = group_io(tree, inputs, [("Edge", "NodeSocketFloat", None)])
     camera, direction = gin.outputs["Camera Position"], gin.outputs["Direction"]
     near, far, lit_near, lit_far = (gin.outputs[name] for name in ("Near", "Far", "Lit Near", "Lit Far"))
@@ -413,7 +427,7 @@ def build_shaft_edge_group(layout: ShaftLayout, shadow_test_tree):
         test = g.node("CompositorNodeGroup")
         test.node_tree = shadow_test_tree
         g.links.new(g.vmath("MULTIPLY_ADD", direction, g.combine(middle, middle, middle), camera), test.inputs["Point"])
-        for socket, *_ in SHARED_INPUTS + cascade_inputs(layout.cascades):
+        for socket, *_ in test_inputs(layout):
             g.links.new(gin.outputs[socket], test.inputs[socket])
         lit_middle = test.outputs["Lit"]
         middle_state = g.math("GREATER_THAN", lit_middle, shaft_boundary.HALF - 1e-7)
@@ -434,7 +448,7 @@ def _march(g, gin, direction, length, sun, layout: ShaftLayout, chunk_trees, edg
     for name, count in march_chunks(layout.steps):
         node = g.node("CompositorNodeGroup")
         node.node_tree = chunk_trees[name]
-        for socket, *_ in SHARED_INPUTS + cascade_inputs(layout.cascades):
+        for socket, *_ in test_inputs(layout):
             g.links.new(gin.outputs[socket], node.inputs[socket])
         for socket, value in (("Direction", direction), ("Sun", sun), ("Step", step), ("First Step", float(first)),
                               *state.items()):
@@ -446,7 +460,7 @@ def _march(g, gin, direction, length, sun, layout: ShaftLayout, chunk_trees, edg
     # The first shadow edge between its samples, as lut_gen.passes.aerial.light_shafts places it.
     crossed = g.math("LESS_THAN", state["Transition"], 0.5 * NEVER)
     k = g.math("MINIMUM", state["Transition"], max(layout.steps - 1, 1))     # finite where none
-    edge = g.group(edge_tree, **{name: gin.outputs[name] for name, *_ in SHARED_INPUTS + cascade_inputs(layout.cascades)},
+    edge = g.group(edge_tree, **{name: gin.outputs[name] for name, *_ in test_inputs(layout)},
                    Direction=direction, Near=g.mul(g.sub(k, 0.5), step), Far=g.mul(g.add(k, 0.5), step),
                    **{"Lit Near": state["Lit Before"], "Lit Far": state["Lit After"]})["Edge"]
     shift = g.mul(g.sub(state["Lit Before"], state["Lit After"]), g.sub(edge, g.mul(k, step)))

@@ -8,9 +8,9 @@ import numpy as np
 
 from ...lut_gen.clouds import field, slab
 from ...lut_gen.clouds.layer import RANGES, CloudLayer
-from ..settings import Sanitized
 from . import names
 from . import sun as sun_lamps
+from .frame.cloud_map import map_ranks, numpy_layer  # noqa: F401 (the scene's clouds for numpy, here with the rest)
 from .setup import drivers
 
 # Cloud-group input <- scene.ols control, shared by the sky group (as "Cloud <input>") and the
@@ -19,7 +19,6 @@ from .setup import drivers
 CLOUD_CONTROLS = {"Coverage": "cloud_coverage", "Base": "cloud_base", "Thickness": "cloud_thickness",
                   "Density": "cloud_density", "Scale": "cloud_scale"}
 
-SEED_KEY = "ols_cloud_seed"         # the seed the map image holds
 
 
 def _float_image(name, width, height):
@@ -39,7 +38,7 @@ def _fill(image, rgba):
 
 
 def _map_intact(image, seed) -> bool:
-    return (image.get(SEED_KEY) == int(seed) and image.packed_file is not None and image.has_data
+    return (image.get(names.CLOUD_SEED_KEY) == int(seed) and image.packed_file is not None and image.has_data
             and tuple(image.size) == (field.MAP_SIZE, field.MAP_SIZE))
 
 
@@ -53,28 +52,21 @@ def ensure_map_image(seed: int):
         rgba = np.ones(ranks.shape + (4,), dtype=np.float32)
         rgba[..., :3] = ranks[..., None]
         _fill(image, rgba)
-        image[SEED_KEY] = int(seed)
+        image[names.CLOUD_SEED_KEY] = int(seed)
     _point_groups_at(image)
     return image
 
 
 def _point_groups_at(image):
     """Image nodes of the cloud groups that lost the map (deleted, replaced) read it again."""
-    for group_name in (names.CLOUDS_GROUP, names.CLOUD_SHADOW_GROUP):
+    for group_name in (names.CLOUDS_GROUP, names.CLOUD_SHADOW_GROUP, names.SHADOW_TEST_GROUP):
         tree = bpy.data.node_groups.get(group_name)
         if tree is None:
             continue
         for node in tree.nodes:
-            if node.bl_idname == "ShaderNodeTexImage" and node.label == names.CLOUD_MAP_IMAGE and node.image != image:
+            if (node.bl_idname in ("ShaderNodeTexImage", "CompositorNodeImage") and node.label == names.CLOUD_MAP_IMAGE
+                    and node.image != image):
                 node.image = image
-
-
-def map_ranks(image) -> np.ndarray:
-    """The map as the numpy code reads it: the image's red channel (rows bottom to top)."""
-    size = tuple(image.size)
-    pixels = np.empty(size[0] * size[1] * 4, dtype=np.float32)
-    image.pixels.foreach_get(pixels)
-    return pixels.reshape(size[1], size[0], 4)[..., 0].copy()
 
 
 def ensure_table_image():
@@ -86,9 +78,7 @@ def ensure_table_image():
 
 def layer_of(settings) -> CloudLayer:
     """The scene's cloud layer, clamped as the drivers clamp it (settings: scene.ols, Sanitized)."""
-    return CloudLayer(coverage=settings.cloud_coverage, base=settings.cloud_base, thickness=settings.cloud_thickness,
-                      density=settings.cloud_density, scale=settings.cloud_scale,
-                      offset=tuple(settings.cloud_offset)[:2], seed=int(settings.cloud_seed)).clamped()
+    return CloudLayer.of(settings)
 
 
 def seed_of(scene) -> int:
@@ -209,19 +199,3 @@ def repair(scene):
     was deleted or damaged."""
     if scene.get(names.WIRED_KEY) and getattr(scene, "ols", None) is not None and scene.ols.clouds_enabled:
         ensure_map_image(seed_of(scene))
-
-
-def numpy_layer(scene):
-    """(CloudLayer, map ranks) for the numpy code while the layer is on, else None. The ranks
-    are read from the image once per seed."""
-    settings = getattr(scene, "ols", None)
-    image = bpy.data.images.get(names.CLOUD_MAP_IMAGE)
-    if settings is None or not settings.clouds_enabled or image is None:
-        return None
-    key = (image.name, image.get(SEED_KEY))
-    if _ranks.get("key") != key:
-        _ranks.update(key=key, ranks=map_ranks(image))
-    return layer_of(Sanitized(settings)), _ranks["ranks"]
-
-
-_ranks = {}

@@ -75,6 +75,7 @@ SHADOW_MAP_IMAGE = "OLS Shadow Map"               # the cascades' depth atlas
 SHADOW_CASCADES_IMAGE = "OLS Shadow Cascades"     # the cascades' rectangles and biases
 CLOUD_MAP_IMAGE = "OLS Cloud Map"                 # lut_gen.clouds.field.cloud_map of the seed
 CLOUD_TABLE_IMAGE = "OLS Cloud Table"             # lut_gen.clouds.slab.table_pixels
+CLOUD_SEED_KEY = "ols_cloud_seed"                 # custom property of the map image: the seed it holds
 SKY_LIGHT_IMAGE = "OLS Sky Light"                 # the world-lighting panoramas
 GROUND_LIGHT_IMAGE = "OLS Ground Light"
 EPIPOLAR_LIT_IMAGE = "OLS Epipolar Lit"

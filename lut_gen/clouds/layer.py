@@ -43,6 +43,18 @@ class CloudLayer:
         offset = tuple(0.0 if not math.isfinite(float(o)) else float(o) for o in self.offset)
         return replace(self, offset=offset, seed=int(self.seed), **values)
 
+    @classmethod
+    def enabled_in(cls, settings) -> "CloudLayer | None":
+        """``of(settings)`` while its Clouds switch is on, else None."""
+        return cls.of(settings) if getattr(settings, "clouds_enabled", False) else None
+
+    @classmethod
+    def of(cls, settings) -> "CloudLayer":
+        """The clamped layer of anything holding the panel's names (scene.ols, PassSettings)."""
+        return cls(coverage=settings.cloud_coverage, base=settings.cloud_base, thickness=settings.cloud_thickness,
+                   density=settings.cloud_density, scale=settings.cloud_scale,
+                   offset=tuple(settings.cloud_offset)[:2], seed=int(settings.cloud_seed)).clamped()
+
     @property
     def middle(self) -> float:
         return self.base + 0.5 * self.thickness

@@ -147,7 +147,7 @@ def light_shafts(luts: Luts, camera, end, sun_direction, is_lit, steps: int = 32
     samples = camera[..., None, :] + direction[..., None, :] * (t * step[..., None])[..., None]
     lit = np.asarray(is_lit(samples), dtype=np.float64)                        # (..., steps)
     lit_length = lit.sum(axis=-1) * step
-    any_light = lit > 0.0
+    any_light = lit >= shaft_boundary.LIT_FLOOR
     first_lit = np.where(any_light.any(axis=-1), np.argmax(any_light, axis=-1) * step, length)
     # The first shadow edge, placed between its two samples (lut_gen.passes.shaft_boundary).
     k, before, after = shaft_boundary.first_transition(lit)

@@ -27,6 +27,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from . import aerial, min_max, render_detail, shaft_boundary
+from ..clouds import shafts as cloud_shafts
 from .shadow_map import MIN_FORWARD_COSINE, Camera, ShadowCascades, visibility
 
 MIN_NEAR = 10.0                 # m: the distance grid is geometric from here (1 m: 4 dB worse on the sample)
@@ -140,8 +141,9 @@ def _unit(v):
 
 
 def frame_for(camera: Camera, sun_direction, width: int, height: int, far: float,
-              settings: EpipolarSettings) -> EpipolarFrame:
-    """The parametrisation that covers the camera's screen out to view depth ``far``."""
+              settings: EpipolarSettings, reach: float = 0.0) -> EpipolarFrame:
+    """The parametrisation that covers the camera's screen out to view depth ``far``, and its
+    rays out to distance ``reach`` (the clouds' march, cloud_reach)."""
     settings = settings.checked()
     sun = _unit(np.asarray(sun_direction, dtype=np.float64))
     forward = camera.forward
@@ -169,9 +171,17 @@ def frame_for(camera: Camera, sun_direction, width: int, height: int, far: float
     theta_lo, theta_hi = max(theta_lo - pixel, 0.0), min(theta_hi + pixel, np.pi)
     if phi_span < 2.0 * np.pi:
         phi_lo, phi_span = phi_lo - pixel, min(phi_span + 2.0 * pixel, 2.0 * np.pi)
-    t_max = max(far / max(corner_cosine(camera), MIN_FORWARD_COSINE), 2.0 * MIN_NEAR)
+    t_max = max(far / max(corner_cosine(camera), MIN_FORWARD_COSINE), 2.0 * MIN_NEAR, reach)
     return EpipolarFrame(sun, axis1, axis2, phi_lo, max(phi_span, 1e-6), theta_lo, max(theta_hi - theta_lo, 1e-6),
                          t_max, t_max / MIN_NEAR, settings.slices, settings.samples, settings.steps)
+
+
+def cloud_reach(clouds, camera: Camera, width: int, height: int, earth_radius: float) -> float:
+    """How far the sky's rays march to the cloud layer (lut_gen.clouds.shafts) across the
+    screen's border, where its lowest and highest rays lie; 0 without clouds."""
+    if clouds is None:
+        return 0.0
+    return cloud_shafts.reach(clouds[0], camera.position, _screen_border(camera, width, height), earth_radius)
 
 
 def corner_cosine(camera: Camera) -> float:
@@ -221,10 +231,11 @@ def initial_samples(samples: int, step: int, density: int) -> np.ndarray:
 
 
 def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Camera, smooth: bool,
-          best_search: bool, first_cascade: int, luts=None, integrate: bool = False, maps=None):
+          best_search: bool, first_cascade: int, luts=None, integrate: bool = False, maps=None, clouds=None):
     """(lit length, first lit, integrated or None) at the frame's distances for rays
     ``directions`` (n, 3): one shadow test per distance interval at its centre, as the brute
-    force march does per step. ``maps`` (lut_gen.passes.min_max) skip the taps of decided points."""
+    force march does per step. ``maps`` (lut_gen.passes.min_max) skip the taps of decided points;
+    ``clouds`` ((layer, map)) weight every test by the cloud's transmittance (lut_gen.clouds.shafts)."""
     t = frame.distances()
     centres = 0.5 * (t[1:] + t[:-1])
     lengths = np.diff(t)
@@ -236,10 +247,15 @@ def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Ca
         return visibility(cascades, at, camera, smooth, best_search, first_cascade)
 
     lit = is_lit(points)
+    if clouds is not None:
+        # Each interval's cloud factor is its mean, not its centre's (intervals reach kilometres);
+        # the edge refinement below tests single points.
+        lit = lit * cloud_shafts.interval_transmittance(*clouds, camera.position, directions, t, frame.sun)
+        is_lit = cloud_shafts.sun_visibility(is_lit, *clouds, frame.sun)
     zero = np.zeros((len(directions), 1))
     lit_length = np.concatenate([zero, np.cumsum(lit * lengths, axis=-1)], axis=-1)
     # F(t): the start of the first interval with light among those before t, else t itself.
-    starts = np.where(lit > 0.0, t[None, :-1], np.inf)
+    starts = np.where(lit >= shaft_boundary.LIT_FLOOR, t[None, :-1], np.inf)
     first = np.minimum.accumulate(starts, axis=-1)
     first_lit = np.minimum(np.concatenate([zero + np.inf, first], axis=-1), t[None, :])
     # The first shadow edge between its two samples, as the brute-force march places it
@@ -264,7 +280,7 @@ def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Ca
 
 def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera, settings: EpipolarSettings,
                  smooth: bool = True, best_search: bool = True, first_cascade: int = 0, luts=None,
-                 integrate: bool = False) -> EpipolarTables:
+                 integrate: bool = False, clouds=None) -> EpipolarTables:
     """March the initial samples of every slice, refine between marched neighbours that
     disagree, and interpolate the rest along each slice."""
     settings = settings.checked()
@@ -286,7 +302,7 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
         for start in range(0, len(idx[0]), chunk):
             sel = (idx[0][start:start + chunk], idx[1][start:start + chunk])
             L, F, S = march(frame, nodes[sel], cascades, camera, smooth, best_search, first_cascade, luts, integrate,
-                            maps)
+                            maps, clouds)
             lit_length[sel], first_lit[sel] = L, F
             if integrate:
                 integrated[sel] = S

@@ -24,6 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from . import aerial, epipolar, epipolar_air
+from ..clouds import shafts as cloud_shafts
+from ..clouds.layer import RANGES as CLOUD_RANGES
 from ..store.atomic import atomic_path
 from ..tables.lookup import Luts
 from .shadow_map import CASCADE_COLORS, MIN_FORWARD_COSINE, Camera, ShadowCascades, select_cascade, visibility
@@ -60,14 +62,26 @@ class PassSettings:
     refinement_threshold: float = 0.03
     show_sampling: bool = False
     use_min_max_optimization: bool = True
+    # The cloud layer (lut_gen.clouds.layer.RANGES): with Clouds on it shadows the air
+    # (lut_gen.clouds.shafts).
+    clouds_enabled: bool = False
+    cloud_coverage: float = CLOUD_RANGES["coverage"][0]
+    cloud_base: float = CLOUD_RANGES["base"][0]
+    cloud_thickness: float = CLOUD_RANGES["thickness"][0]
+    cloud_density: float = CLOUD_RANGES["density"][0]
+    cloud_scale: float = CLOUD_RANGES["scale"][0]
+    cloud_seed: int = 0
+    cloud_offset: tuple = (0.0, 0.0)
 
 
-
-def march_ends(camera: Camera, directions, position, depth, far: float):
+def march_ends(camera: Camera, directions, position, depth, far: float, clouds=None, earth_radius=None):
     """(end points (..., 3), geometry mask): the surface where there is one, else the point at
-    view depth ``far`` along the pixel's ray."""
+    view depth ``far`` along the pixel's ray, or with ``clouds`` ((layer, map) of
+    lut_gen.clouds.shafts.of_settings) the cloud it meets if that lies farther."""
     geometry = np.asarray(depth) < sky_depth(camera.clip_end)
     along = far / np.maximum(directions @ camera.forward, MIN_FORWARD_COSINE)
+    if clouds is not None:
+        along = np.maximum(along, cloud_shafts.march_distance(clouds[0], camera.position, directions, earth_radius))
     sky_end = camera.position + directions * along[..., None]
     return np.where(geometry[..., None], position, sky_end), geometry
 
@@ -82,18 +96,21 @@ def scattering_pass(luts: Luts, image, position, depth, camera: Camera, sun_dire
     height, width = image.shape[:2]
     directions = camera.view_directions(width, height)
     far = cascades.far_depths[-1] if cascades is not None else None
-    end, geometry = march_ends(camera, directions, position, depth, far if far is not None else 1.0)
+    shafts = settings.enable_light_shafts and cascades is not None
+    clouds = cloud_shafts.of_settings(settings) if shafts else None
+    end, geometry = march_ends(camera, directions, position, depth, far if far is not None else 1.0, clouds,
+                               luts.params.earth_radius)
     scale = settings.sun_strength * settings.scattering_scale
     transmittance = aerial.segment_transmittance(luts, camera.position, end)
     surface = image * transmittance * (0.0 if settings.lighting_only else 1.0)
-    shafts = settings.enable_light_shafts and cascades is not None
     overlay = None
     if shafts and settings.scattering_technique == "EPIPOLAR_SAMPLING":
         # The aerial perspective's in-scattering and the shafts, both from the epipolar tables.
-        unshadowed, difference, overlay = epipolar_pass(luts, camera, end, sun, cascades, settings, width, height)
+        unshadowed, difference, overlay = epipolar_pass(luts, camera, end, sun, cascades, settings, width, height,
+                                                        clouds)
     else:
         unshadowed = aerial.segment_inscattering(luts, camera.position, end, sun)
-        difference = light_shafts(luts, camera, end, sun, cascades, settings, unshadowed) if shafts else 0.0
+        difference = light_shafts(luts, camera, end, sun, cascades, settings, unshadowed, clouds) if shafts else 0.0
     # No negative light: the shafts cannot take out more than a pixel holds (a render cropped to
     # 1 x 1). The light-shaft pass nodes: sky_shadow_share.
     share = sky_shadow_share(image, unshadowed * scale, geometry)
@@ -126,14 +143,15 @@ def sampling_red(radiance):
 
 
 def epipolar_pass(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades, settings: PassSettings,
-                  width: int, height: int):
+                  width: int, height: int, clouds=None):
     """(unshadowed in-scattering, shadowed minus unshadowed, Show Sampling's overlay or None)
     per unit sun of every pixel, from the epipolar tables (lut_gen.passes.epipolar, epipolar_air)."""
     wanted = epipolar.for_render(epipolar.settings_from(settings), width, height)
-    frame = epipolar.frame_for(camera, sun, width, height, float(cascades.far_depths[-1]), wanted)
+    frame = epipolar.frame_for(camera, sun, width, height, float(cascades.far_depths[-1]), wanted,
+                               epipolar.cloud_reach(clouds, camera, width, height, luts.params.earth_radius))
     tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
                                    settings.best_cascade_search, settings.first_cascade_to_ray_march, luts,
-                                   settings.single_scattering_mode == "INTEGRATION")
+                                   settings.single_scattering_mode == "INTEGRATION", clouds)
     overlay = (epipolar.sampling_overlay(frame, tables.marched, camera, width, height)
                if settings.show_sampling else None)
     air = epipolar_air.air_frame(frame, camera)
@@ -145,12 +163,14 @@ def epipolar_pass(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades
 
 
 def light_shafts(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades, settings: PassSettings,
-                 unshadowed):
+                 unshadowed, clouds=None):
     """Shadowed minus ``unshadowed`` in-scattering per unit sun of every pixel by brute-force
-    ray marching (eq. 8 per pixel)."""
+    ray marching (eq. 8 per pixel); ``clouds`` shadow the air too (lut_gen.clouds.shafts)."""
     def is_lit(points):
         return visibility(cascades, points, camera, settings.smooth_shadows,
                           settings.best_cascade_search, settings.first_cascade_to_ray_march)
+    if clouds is not None:
+        is_lit = cloud_shafts.sun_visibility(is_lit, *clouds, sun)
     shadowed = aerial.light_shafts(luts, camera.position, end, sun, is_lit, settings.num_integration_steps,
                                    settings.single_scattering_mode, settings.multiple_scattering_mode)
     return shadowed - unshadowed

@@ -24,6 +24,9 @@ import numpy as np
 
 REFINE_ITERATIONS = 4       # shadow tests per ray: the edge to 1/16 of a step before interpolating
 HALF = 0.5                  # the lit fraction that separates the two states
+# A sample lit less than this counts as unlit for the first lit distance: the compositor's
+# float32 test, and the cloud's transmittance under a thick cloud (exp(-20) = 2e-9) is no light.
+LIT_FLOOR = 1e-6
 
 
 def first_transition(lit):

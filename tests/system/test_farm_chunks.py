@@ -1,5 +1,6 @@
 """Chunked rendering as a farm runs it: frames 1-6 of the sample with Animate Sun, a moving
-camera, light adaptation and light shafts, rendered by scripts/render.py as one job and as three
+camera, light adaptation, light shafts and clouds drifting in the wind (a keyframed offset, which
+moves the sky's clouds, their shadows and the shafts under them), rendered by scripts/render.py as one job and as three
 2-frame chunks, each in its own process with its own empty, read-only cache directory and the
 tables packed in the .blend. The frames must be identical (same Cycles seed)."""
 import os
@@ -41,6 +42,11 @@ def packed_animation(addon_package, tmp_path, monkeypatch):
     settings.light_adaptation = True
     settings.tone_map_exr = True                                 # the adaptation shows in the EXR
     settings.num_integration_steps = 8
+    settings.clouds_enabled = True
+    settings.cloud_coverage, settings.cloud_base, settings.cloud_scale = 0.5, 600.0, 400.0
+    for frame, offset in ((1, (0.0, 0.0)), (6, (900.0, 300.0))):
+        settings.cloud_offset = offset
+        settings.keyframe_insert("cloud_offset", frame=frame)
     camera = scene.camera
     for frame, shift in ((1, 0.0), (6, 60.0)):
         camera.location.x += shift

@@ -90,17 +90,19 @@ def images_intact(layout, settings) -> bool:
                     for name, size in _sized_images(layout, settings).items()))
 
 
-def update(state, cascades, luts_object) -> dict:
+def update(state, cascades, luts_object, clouds=None) -> dict:
     """Build the frame's tables, write them into the images; the "OLS Frame Values" rows.
-    ``state``: the frame's FrameState; ``luts_object``: the bake as lut_gen.Luts."""
+    ``state``: the frame's FrameState; ``luts_object``: the bake as lut_gen.Luts; ``clouds``:
+    (layer, map) while the cloud layer shadows the air."""
     settings, camera, sun_direction = state.settings, state.camera, state.sun_direction
     width, height = state.render_size
     wanted = epipolar.settings_from(settings)
-    frame = epipolar.frame_for(camera, sun_direction, width, height, float(cascades.far_depths[-1]), wanted)
+    reach = epipolar.cloud_reach(clouds, camera, width, height, luts_object.params.earth_radius)
+    frame = epipolar.frame_for(camera, sun_direction, width, height, float(cascades.far_depths[-1]), wanted, reach)
     integrate = settings.single_scattering_mode == "INTEGRATION"
     tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
                                    settings.best_cascade_search, settings.first_cascade_to_ray_march,
-                                   luts_object, integrate)
+                                   luts_object, integrate, clouds)
     lit, integral = nodes.epipolar.pack(tables)
     luts.write_data_image(names.EPIPOLAR_LIT_IMAGE, lit)
     if integral is not None:

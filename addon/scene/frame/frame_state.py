@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ....lut_gen.clouds.layer import CloudLayer
 from ....lut_gen.passes import render_detail, shadow_map
 from ...settings import Sanitized
 from .. import sun as sun_lamps
@@ -57,12 +58,14 @@ class FrameState:
     settings: Sanitized
     render_size: tuple              # (width, height) in pixels
     clip_start: float
+    clouds: CloudLayer | None = None    # the cloud layer as evaluated for the frame, while Clouds is on
 
     def key(self) -> tuple:
         """Hashable: equal for frames whose camera and sun are the same."""
         camera = self.camera
         return (tuple(camera.position), tuple(map(tuple, camera.rotation)), tuple(camera.tan_half_fov),
-                camera.clip_end, self.clip_start, tuple(self.sun_direction), self.sun_strength, self.render_size)
+                camera.clip_end, self.clip_start, tuple(self.sun_direction), self.sun_strength, self.render_size,
+                self.clouds)
 
 
 def read(scene, depsgraph=None) -> FrameState:
@@ -72,5 +75,9 @@ def read(scene, depsgraph=None) -> FrameState:
     sun_direction, sun_strength = sun_state(scene, depsgraph)
     render = scene.render
     size = render_detail.render_size(render.resolution_x, render.resolution_y, render.resolution_percentage)
+    # The clouds as the frame evaluates them: a keyframed offset (wind) moves the shafts with
+    # the clouds the world shows, whose drivers read the evaluated scene too.
+    evaluated = depsgraph.scene_eval if depsgraph is not None else scene
+    clouds = CloudLayer.enabled_in(Sanitized(getattr(evaluated, "ols", scene.ols)))
     return FrameState(camera, sun_direction, float(sun_strength), Sanitized(scene.ols), tuple(size),
-                      float(scene.camera.data.clip_start))
+                      float(scene.camera.data.clip_start), clouds)

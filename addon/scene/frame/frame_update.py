@@ -13,9 +13,11 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
+from ....lut_gen.clouds import shafts as cloud_shafts
 from ....lut_gen.passes import epipolar, frame_values, scattering_pass
 from ...settings import Sanitized
 from .. import names
+from . import cloud_map
 from ..tables import luts, wired_bake
 from . import epipolar_tables, frame_state, shadow_maps
 
@@ -42,6 +44,7 @@ def write_frame_values(scene, state=None, cascades=None, extra=None):
             return              # no sun or an orthographic camera: the operators report it
     values = shadow_maps.camera_values(state.camera)
     values["Sun Direction"], values["Sun Strength"] = state.sun_direction, state.sun_strength
+    values.update(cloud_shafts.frame_rows(state.clouds))
     if cascades is not None:
         values.update(shadow_maps.frame_values(cascades))
     values.update(extra or {})
@@ -90,7 +93,8 @@ def update_frame(scene, depsgraph) -> bool:
         if node.node_tree.get(names.READS_SHADOW_MAPS_KEY, True):
             shadow_maps.write_images(cascades)
         if node.node_tree.get(names.LAYOUT_KEY, "").find("EPIPOLAR_SAMPLING") >= 0:
-            extra = epipolar_tables.update(state, cascades, wired_bake.bake_info(scene).numpy_luts())
+            extra = epipolar_tables.update(state, cascades, wired_bake.bake_info(scene).numpy_luts(),
+                                           cloud_map.numpy_layer(scene, state.clouds))
     write_frame_values(scene, state, cascades, extra)
     _state.update(key=key, geometry_changed=False)
     return True
@@ -130,6 +134,7 @@ def pass_settings(scene, sun_strength: float):
     fields = scattering_pass.PassSettings.__dataclass_fields__
     settings = Sanitized(scene.ols)
     values = {name: getattr(settings, name) for name in fields if hasattr(scene.ols, name)}
+    values["cloud_offset"] = tuple(float(v) for v in values.get("cloud_offset", (0.0, 0.0)))
     return scattering_pass.PassSettings(**values, sun_strength=sun_strength)
 
 

@@ -7,6 +7,7 @@ import bpy
 from mathutils import Vector
 
 from ...settings import Sanitized
+from .. import names
 from ..frame import epipolar_tables
 
 PASSES = (("use_pass_position", "Position"), ("use_pass_z", "Depth"))
@@ -39,11 +40,23 @@ def camera_problems(scene, depsgraph) -> list:
     if position.z < 0.0:
         problems.append(f"the camera {camera.name!r} is {-position.z:.1f} m below the ground level (z = 0), "
                         "where the atmosphere starts; the pass treats it as standing on the ground")
-    hit, _location, normal, _index, obj, _matrix = scene.ray_cast(depsgraph, position, Vector((0.0, 0.0, 1.0)))
+    hit, obj, normal = _surface_above(scene, depsgraph, position)
     if hit and normal.z > 0.0:
         problems.append(f"the camera {camera.name!r} is under the surface of {obj.name!r} (inside the terrain?); "
                         "move it above the surface, or the air it sees is all in shadow")
     return problems
+
+
+def _surface_above(scene, depsgraph, position):
+    """(hit, object, normal) of the first surface straight above ``position``, looking through the
+    clouds' shadow-only layer (it is a partial occluder in the sky, not a roof)."""
+    up = Vector((0.0, 0.0, 1.0))
+    for _ in range(4):
+        hit, location, normal, _index, obj, _matrix = scene.ray_cast(depsgraph, position, up)
+        if not hit or obj.name != names.CLOUD_SHADOW_OBJECT:
+            return hit, obj, normal
+        position = location + up * 1e-3
+    return False, None, None
 
 
 def render_problems(scene, depsgraph=None) -> list:

@@ -71,8 +71,9 @@ def build_light_shafts(scene, optical_image, params):
         shadow_maps.remove_images()
     else:
         shadow_maps.release_buffer()
+    cloud_map = clouds.ensure_map_image(clouds.seed_of(scene)) if layout.clouds else None
     nodes.build_light_shaft_groups(optical_image, atlas, table, params, layout,
-                                   epipolar_tables.ensure_images(layout, settings))
+                                   epipolar_tables.ensure_images(layout, settings), cloud_map)
     frame_update.forget()           # new groups may read new (empty) images: write them again
 
 

@@ -1,0 +1,283 @@
+"""The world sky model's clouds (lut_gen.clouds.sky.view + composite, what the sky shader's twin
+shows, per unit sun) against the Monte Carlo path tracer of the atmosphere with the cloud layer
+(lut_gen.verify.cloud_monte_carlo), for a uniform layer (coverage 1: every column full
+thickness, base 1500 m, 600 m thick).
+
+The tracer is checked first against the two references it extends: without the cloud it is
+monte_carlo.radiance_by_order (all orders), without the air it is the slab tracer
+(slab_monte_carlo.trace). Both sides use the same three-channel media (the default atmosphere at
+680/550/440 nm, ``spectrum.triple_params``), the model through a draft bake of them.
+
+The issue's bar: radiance and transmittance of a uniform layer within 10% of the path tracer at
+sun 60, 20 and 5 deg, from below and above. Geometries: optical thickness 20 (the default
+density) and 2.5; seen from below (camera at 2 m, looking up at 60 and 20 deg) and from above
+(camera at 3 km, looking down at 60 and 20 deg); the sun at 60, 20 and 5 deg elevation, in the
+line of sight's azimuth ("toward") or opposite ("away"). Transmittance: the global irradiance on
+the ground (the diffuse sky and cloud light over the upper hemisphere plus the direct sun), and
+the direct sun where the layer lets it through. Errors are relative, RGB norms
+(|model - MC| / |MC|); ``pytest -s`` prints every geometry with the tracer's standard error.
+
+Where the model holds and where it does not (measured with the seeds and path counts below; MC
+standard errors 1-7%, largest from below a thick layer under a low sun): 11 of the 54 geometries
+are within the bar, KNOWN_MODEL_ERRORS lists the other 43 with their numbers.
+test_within_the_bar_where_the_model_holds asserts the bar on the 11;
+test_the_known_model_errors_do_not_grow holds the other 43 at their measured error or better,
+until the model is fixed. What is wrong in the model, by the tracer's
+numbers (model / MC in green) and the same comparison with a black ground (ground_albedo 0 in
+both), which takes out the ground's part:
+
+1. The air between the camera and the cloud is sunlit in the model (composite's S - T alpha S_P
+   is the clear sky's in-scattering over that stretch), but under a uniform layer it lies in the
+   cloud's shadow, lit only by the cloud base. From below, toward the sun, the haze's forward
+   peak is added in full: 21x looking up at 20 deg toward a sun at 20 or 5 deg (3.6-5.5x through
+   the thin layer), 2.6x looking up at 60 toward a sun at 60 (straight at the sun, whose disc
+   neither side counts), 1.8-3.4x looking up at 20 away from a low sun; it lifts the ground's
+   global irradiance to 1.9-2.5x (thick) and 1.2-1.5x (thin) under a sun at 20 and 5 deg. The
+   cloud's own light (T C) alone is within 0.7-1.2x of the tracer there (with a black ground).
+   (lut_gen/clouds/shafts.py may be meant to take this out; sky.view + composite alone do not.)
+2. The ground shows through the cloud from above: composite adds the clear sky's ground radiance
+   (clear_sky includes it) and alpha hides only the sky behind the cloud (S_P), and that ground
+   is lit as if no cloud shadowed it. Seen from 3 km looking down at 60 deg the model is
+   1.20-1.29x (thick) and 1.14-1.29x (thin); with a black ground 0.97-1.15x and 0.98-1.10x.
+3. No light goes back and forth between the ground and the cloud base: the underside of the thick
+   layer away from a sun at 60 deg is 0.86-0.88x with the default ground (albedo 0.2), 0.93-0.94x
+   with a black one.
+4. The air above the layer is lit as over the clear ground (the table's), not over the bright
+   cloud top: looking down at 20 deg toward a sun at 5 deg the model is 0.82x (thick) and 0.80x
+   (thin) with a black ground (0.91x and 0.85x with the default ground, where 2. makes up part).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import lut_gen
+from lut_gen.clouds import field, shadow, sky
+from lut_gen.clouds.layer import CloudLayer
+from lut_gen.model import spectrum
+from lut_gen.verify import cloud_monte_carlo as cmc
+from lut_gen.verify import slab_monte_carlo
+from lut_gen.verify.monte_carlo import radiance_by_order
+
+PARAMS = spectrum.triple_params(lut_gen.AtmosphereParams(), (680.0, 550.0, 440.0))
+LAYERS = {
+    "tau 20": CloudLayer(coverage=1.0),                          # the default density, 20 / 600 m
+    "tau 2.5": CloudLayer(coverage=1.0, density=2.5 / 600.0),
+}
+SUN_ELEVATIONS = (60.0, 20.0, 5.0)
+AZIMUTHS = {"toward": 0.0, "away": 180.0}
+# name: (camera height m, view elevation deg)
+VIEWS = {"below, up 60": (2.0, 60.0), "below, up 20": (2.0, 20.0),
+         "above, down 60": (3000.0, -60.0), "above, down 20": (3000.0, -20.0)}
+BAR = 0.10
+SIGMAS = 4.0
+# Paths per walk (one walk scores all six suns of a view): more from below a thick layer, where
+# few paths reach the sunlit top.
+PATHS = 8192
+PATHS_BELOW_THICK = 16384
+# The hemisphere quadrature of the model's diffuse irradiance: Gauss-Legendre in cos(zenith).
+HEMISPHERE_ZENITHS, HEMISPHERE_AZIMUTHS = 48, 96
+
+# Geometries over the bar at these seeds and path counts, 43 of 54 (the module docstring says
+# why): name: (RGB error, model / MC in green, MC standard error, relative). Within the bar (11):
+# tau 20: below up 60 sun 20 away (0.073), above down 20 sun 20 toward (0.041) and sun 5 toward
+# (0.086); tau 2.5: below up 60 sun 60 toward (0.072) and away (0.079), sun 20 away (0.083),
+# below up 20 sun 60 toward (0.073), above down 20 sun 60 toward (0.096) and away (0.099), sun 20
+# toward (0.060), global irradiance sun 60 (0.023). Those near 0.10 are so within the tracer's
+# noise (standard errors 2-4% there): they hold at these seeds, not by a margin.
+KNOWN_MODEL_ERRORS = {
+    "tau 20, below, up 60, sun 60 toward": (1.537, 2.58, 0.025),
+    "tau 20, below, up 60, sun 60 away": (0.124, 0.88, 0.025),
+    "tau 20, below, up 60, sun 20 toward": (0.387, 1.41, 0.043),
+    "tau 20, below, up 60, sun 5 toward": (0.450, 1.50, 0.053),
+    "tau 20, below, up 60, sun 5 away": (0.189, 1.21, 0.059),
+    "tau 20, below, up 20, sun 60 toward": (0.497, 1.44, 0.030),
+    "tau 20, below, up 20, sun 60 away": (0.160, 0.86, 0.030),
+    "tau 20, below, up 20, sun 20 toward": (18.021, 20.72, 0.050),
+    "tau 20, below, up 20, sun 20 away": (0.938, 1.81, 0.050),
+    "tau 20, below, up 20, sun 5 toward": (19.951, 20.82, 0.060),
+    "tau 20, below, up 20, sun 5 away": (2.082, 3.35, 0.069),
+    "tau 20, above, down 60, sun 60 toward": (0.194, 1.21, 0.018),
+    "tau 20, above, down 60, sun 60 away": (0.186, 1.20, 0.018),
+    "tau 20, above, down 60, sun 20 toward": (0.189, 1.20, 0.029),
+    "tau 20, above, down 60, sun 20 away": (0.268, 1.29, 0.029),
+    "tau 20, above, down 60, sun 5 toward": (0.207, 1.21, 0.041),
+    "tau 20, above, down 60, sun 5 away": (0.289, 1.29, 0.045),
+    "tau 20, above, down 20, sun 60 toward": (0.136, 1.13, 0.017),
+    "tau 20, above, down 20, sun 60 away": (0.191, 1.20, 0.018),
+    "tau 20, above, down 20, sun 20 away": (0.188, 1.18, 0.024),
+    "tau 20, above, down 20, sun 5 away": (0.189, 1.08, 0.032),
+    "tau 20, global irradiance, sun 60": (0.120, 1.10, 0.026),
+    "tau 20, global irradiance, sun 20": (0.813, 1.86, 0.040),
+    "tau 20, global irradiance, sun 5": (1.398, 2.51, 0.059),
+    "tau 2.5, below, up 60, sun 20 toward": (0.103, 1.12, 0.030),
+    "tau 2.5, below, up 60, sun 5 toward": (0.206, 1.19, 0.045),
+    "tau 2.5, below, up 60, sun 5 away": (0.187, 1.18, 0.048),
+    "tau 2.5, below, up 20, sun 60 away": (0.161, 0.84, 0.025),
+    "tau 2.5, below, up 20, sun 20 toward": (2.412, 3.57, 0.029),
+    "tau 2.5, below, up 20, sun 20 away": (0.283, 1.27, 0.038),
+    "tau 2.5, below, up 20, sun 5 toward": (4.766, 5.49, 0.047),
+    "tau 2.5, below, up 20, sun 5 away": (0.733, 1.83, 0.048),
+    "tau 2.5, above, down 60, sun 60 toward": (0.135, 1.14, 0.022),
+    "tau 2.5, above, down 60, sun 60 away": (0.190, 1.20, 0.021),
+    "tau 2.5, above, down 60, sun 20 toward": (0.177, 1.18, 0.035),
+    "tau 2.5, above, down 60, sun 20 away": (0.236, 1.25, 0.034),
+    "tau 2.5, above, down 60, sun 5 toward": (0.276, 1.26, 0.043),
+    "tau 2.5, above, down 60, sun 5 away": (0.317, 1.29, 0.047),
+    "tau 2.5, above, down 20, sun 20 away": (0.104, 1.05, 0.027),
+    "tau 2.5, above, down 20, sun 5 toward": (0.134, 0.85, 0.021),
+    "tau 2.5, above, down 20, sun 5 away": (0.168, 0.90, 0.040),
+    "tau 2.5, global irradiance, sun 20": (0.202, 1.23, 0.036),
+    "tau 2.5, global irradiance, sun 5": (0.480, 1.46, 0.048),
+}
+
+
+def direction(elevation_deg, azimuth_deg=0.0):
+    el, az = math.radians(elevation_deg), math.radians(azimuth_deg)
+    return np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+
+
+SUNS = [(elevation, side) for elevation in SUN_ELEVATIONS for side in AZIMUTHS]
+SUN_VECTORS = np.array([direction(elevation, AZIMUTHS[side]) for elevation, side in SUNS])
+
+
+def relative_error(model, reference):
+    return float(np.linalg.norm(model - reference) / np.linalg.norm(reference))
+
+
+# -- the tracer against its references -----------------------------------------------------------
+
+def test_without_the_cloud_the_tracer_is_the_atmosphere_path_tracer():
+    for height, elevation, sun in ((2.0, 20.0, direction(20.0, 0.0)), (3000.0, -40.0, direction(40.0, 90.0))):
+        view = direction(elevation)
+        ours = cmc.radiance(PARAMS, None, height, view, sun, paths=4096, seed=3)
+        theirs = radiance_by_order(PARAMS, height, view[2], sun[2], view @ sun, orders=8, paths=4096, seed=4)
+        total = theirs.atmosphere.sum(0) + theirs.ground.sum(0)
+        se = np.hypot(ours.se[0], np.sqrt(theirs.atmosphere_cov.sum(axis=(0, 1)) + theirs.ground_cov.sum(axis=(0, 1))))
+        print(height, elevation, ours.value[0], total, se)
+        assert np.all(np.abs(ours.value[0] - total) <= SIGMAS * se + 0.01 * total)
+
+
+def test_without_the_air_the_tracer_is_the_slab_tracer():
+    """A thin atmosphere-free shell seen near the zenith is the plane-parallel slab."""
+    vacuum = lut_gen.AtmosphereParams(spectral=False, ozone=False, ground_albedo=0.0, mie_scattering=(0.0,) * 3,
+                                      rayleigh_scattering=(1e-12,) * 3)
+    tau = 3.0
+    layer = CloudLayer(coverage=1.0, density=tau / 600.0)
+    sun = direction(50.0)
+    views = [(2.0, direction(70.0, 0.0)), (2.0, direction(60.0, 180.0)), (3000.0, direction(-60.0, 90.0))]
+    slab = slab_monte_carlo.trace(tau, sun[2], -np.array([v for _, v in views]), photons=20000, seed=9)
+    for i, (height, view) in enumerate(views):
+        ours = cmc.radiance(vacuum, layer, height, view, sun, paths=4096, seed=10 + i)
+        want, want_se = (slab.below[i], slab.below_se[i]) if view[2] > 0 else (slab.above[i], slab.above_se[i])
+        print(height, view, ours.value[0, 1], want)
+        assert abs(ours.value[0, 1] - want) <= SIGMAS * math.hypot(ours.se[0, 1], want_se)
+
+
+# -- the model against the tracer ----------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def luts():
+    return lut_gen.bake(PARAMS, resolution="draft")
+
+
+def model_radiance(luts, layer, height, directions, sun):
+    """What the world shows (sky.view + composite, scattering scale and sun strength 1), per unit sun."""
+    ranks = field.cloud_map(0, 32)             # coverage 1: every rank is a full column
+    cos_sun_view = directions @ sun
+    clear = (luts.sky_radiance(height, directions[:, 2], sun[2], cos_sun_view)
+             + luts.ground_radiance(height, directions[:, 2], sun[2], cos_sun_view))
+    return sky.composite(clear, 1.0, 1.0, sky.view(luts, layer, ranks, height, directions, sun))
+
+
+def model_irradiance(luts, layer, height, sun):
+    """The model's diffuse irradiance on the ground: its radiance x cos over the upper hemisphere."""
+    x, w = np.polynomial.legendre.leggauss(HEMISPHERE_ZENITHS)
+    mu, mu_weight = 0.5 * (x + 1.0), 0.5 * w
+    phi = (np.arange(HEMISPHERE_AZIMUTHS) + 0.5) * 2.0 * math.pi / HEMISPHERE_AZIMUTHS
+    m, p = np.meshgrid(mu, phi, indexing="ij")
+    s = np.sqrt(1.0 - m * m)
+    directions = np.stack([s * np.cos(p), s * np.sin(p), m], axis=-1).reshape(-1, 3)
+    weights = (mu_weight[:, None] * m * (2.0 * math.pi / HEMISPHERE_AZIMUTHS)).reshape(-1)
+    return weights @ model_radiance(luts, layer, height, directions, sun)
+
+
+def model_direct(luts, layer, height, sun):
+    """The sun's beam on the ground: the air's transmittance (tables) times the cloud shadow's."""
+    ranks = field.cloud_map(0, 32)
+    at = np.zeros(1)
+    return luts.transmittance_to_top(height, sun[2]) * shadow.sun_transmittance(layer, ranks, at, at, sun[2] + at)
+
+
+@pytest.fixture(scope="module")
+def comparison(luts):
+    """name: (model (3,), MC (3,), MC standard error (3,)) for every geometry; radiance and the
+    global irradiance on the ground ("transmittance")."""
+    rows = {}
+    seed = 100
+    for layer_name, layer in LAYERS.items():
+        for view_name, (height, elevation) in VIEWS.items():
+            seed += 1
+            view = direction(elevation)
+            paths = PATHS_BELOW_THICK if (height < 1000.0 and layer_name == "tau 20") else PATHS
+            mc = cmc.radiance(PARAMS, layer, height, view, SUN_VECTORS, paths=paths, seed=seed)
+            for j, (sun_elevation, side) in enumerate(SUNS):
+                model = model_radiance(luts, layer, height, view[None], SUN_VECTORS[j])[0]
+                rows[f"{layer_name}, {view_name}, sun {sun_elevation:.0f} {side}"] = (model, mc.value[j], mc.se[j])
+        seed += 1
+        suns = SUN_VECTORS[::2]
+        paths = PATHS_BELOW_THICK if layer_name == "tau 20" else PATHS
+        diffuse = cmc.irradiance(PARAMS, layer, 2.0, suns, paths=paths, seed=seed)
+        direct = cmc.direct_transmittance(PARAMS, layer, 2.0, suns)
+        for j, sun in enumerate(suns):
+            model = model_irradiance(luts, layer, 2.0, sun) + sun[2] * model_direct(luts, layer, 2.0, sun)
+            name = f"{layer_name}, global irradiance, sun {SUN_ELEVATIONS[j]:.0f}"
+            rows[name] = (model, diffuse.value[j] + sun[2] * direct[j], diffuse.se[j])
+    print()
+    for name, (model, mc, se) in rows.items():
+        print(f"{name:42s} model {np.array2string(model, precision=4)} MC {np.array2string(mc, precision=4)} "
+              f"error {relative_error(model, mc):6.3f} MC se {np.linalg.norm(se) / np.linalg.norm(mc):.3f}")
+    return rows
+
+
+@pytest.mark.slow
+def test_the_tracer_is_precise_enough_to_judge_the_bar(comparison):
+    for name, (_, mc, se) in comparison.items():
+        assert np.linalg.norm(se) / np.linalg.norm(mc) < 0.11, name
+
+
+@pytest.mark.slow
+def test_within_the_bar_where_the_model_holds(comparison):
+    holds = {name: relative_error(model, mc) for name, (model, mc, _) in comparison.items()
+             if name not in KNOWN_MODEL_ERRORS}
+    over = {name: round(error, 3) for name, error in holds.items() if error > BAR}
+    assert not over, over
+
+
+@pytest.mark.slow
+def test_the_direct_sun_through_the_layer(luts):
+    """Where the layer lets the sun through (thin, sun 60 and 20): the shadow's exp(-tau / mu)
+    against the tracer's chord through the curved shell, times the air's transmittance."""
+    layer = LAYERS["tau 2.5"]
+    for elevation in (60.0, 20.0):
+        sun = direction(elevation)
+        mc = cmc.direct_transmittance(PARAMS, layer, 2.0, sun)[0]
+        model = model_direct(luts, layer, 2.0, sun)
+        print(elevation, model, mc)
+        assert relative_error(model, mc) < BAR
+
+
+@pytest.mark.slow
+def test_the_known_model_errors_do_not_grow(comparison):
+    """The geometries where the model misses the bar (the module docstring says why) hold their
+    measured error or better: a fix of the model shrinks them (then move them out of
+    KNOWN_MODEL_ERRORS), a regression fails here."""
+    grown = {}
+    for name, (recorded, _, se) in KNOWN_MODEL_ERRORS.items():
+        model, mc, _ = comparison[name]
+        error = relative_error(model, mc)
+        if error > recorded * 1.1 + SIGMAS * se:
+            grown[name] = (round(error, 3), recorded)
+    assert not grown, grown
