@@ -43,9 +43,11 @@ def _sync_compositor(settings, context):
 
 
 def _sync_clouds(settings, context):
-    """The cloud map follows the seed (0.36 s to make) and the shadow layer the on/off switch."""
+    """The cloud map follows the seed (0.36 s to make), the shadow layer and the compositor's
+    cloud veil the on/off switch."""
     if context.scene is not None:
         clouds.sync(context.scene)
+        compositor.sync_settings(context.scene)
 
 
 def _apply_cloud_preset(settings, context):

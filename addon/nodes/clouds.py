@@ -33,7 +33,7 @@ OUTPUTS = [("Alpha", "NodeSocketFloat", None), ("Light", "NodeSocketVector", Non
            ("Air", "NodeSocketVector", None), ("Sky Behind", "NodeSocketVector", None)]
 
 
-def _phase(g, cos_theta):
+def phase(g, cos_theta):
     """lut_gen.clouds.slab.phase."""
     total = 0.0
     for weight, asym in slab.PHASE_LOBES:
@@ -55,7 +55,7 @@ def _exp_ratio(g, a, b):
 
 def _single_scattering(g, tau, mu_s, mu_v, cos_sun_view, reflected):
     """slab.single_scattering, the transmitted or the reflected form by ``reflected``."""
-    p = _phase(g, cos_sun_view)
+    p = phase(g, cos_sun_view)
     through = g.mul(g.div(g.mul(p, tau), mu_v), _exp_ratio(g, g.div(tau, mu_v), g.div(tau, mu_s)))
     inverse_sum = g.add(g.div(1.0, mu_s), g.div(1.0, mu_v))
     back = g.mul(g.div(g.mul(p, mu_s), g.add(mu_s, mu_v)),
@@ -63,7 +63,7 @@ def _single_scattering(g, tau, mu_s, mu_v, cos_sun_view, reflected):
     return g.select(through, back, reflected)
 
 
-def _two_stream(g, tau, mu_s):
+def two_stream(g, tau, mu_s):
     """slab.two_stream: (reflected, diffusely transmitted) flux fractions."""
     f, asym = slab.DELTA_FRACTION, slab.SCALED_ASYMMETRY
     gamma1 = 0.75 * (1.0 - asym)
@@ -76,7 +76,7 @@ def _two_stream(g, tau, mu_s):
     return reflected, g.math("MAXIMUM", g.sub(g.sub(1.0, reflected), direct), 0.0)
 
 
-def _diffuse_two_stream(g, tau):
+def diffuse_two_stream(g, tau):
     """slab.diffuse_two_stream."""
     f, asym = slab.DELTA_FRACTION, slab.SCALED_ASYMMETRY
     x = g.mul(tau, 0.75 * (1.0 - asym) * (1.0 - f))
@@ -107,7 +107,7 @@ def _higher_orders(g, table_image, tau, abs_sun, mu_s, abs_view, cos_az, reflect
     terms = g.separate(g.vlerp(fetches[0], fetches[1], weight))
     shape = g.add(g.mul_add(terms[1], cos_az, terms[0]),
                   g.mul(terms[2], g.sub(g.mul(g.mul(cos_az, cos_az), 2.0), 1.0)))
-    back, through = _two_stream(g, tau, mu_s)
+    back, through = two_stream(g, tau, mu_s)
     return g.mul(g.mul(shape, g.mul(mu_s, 1.0 / math.pi)), g.select(through, back, reflected))
 
 
@@ -197,7 +197,7 @@ def build_cloud_group(map_image, table_image, optical_image, ambient_image, para
     radiance = g.add(_single_scattering(g, tau, mu_s, abs_view, cos_sun_view, reflected),
                      _higher_orders(g, table_image, tau, abs_sun, mu_s, abs_view, cos_az, reflected))
     sun_light = g.vscale(transmittance_to_top(g, optical_image, middle, cos_sun, params), radiance)
-    back, through = _diffuse_two_stream(g, tau)
+    back, through = diffuse_two_stream(g, tau)
     ambient_share = g.div(g.select(back, through, g.math("GREATER_THAN", cos_view, 0.0)), math.pi)
     ambient = g.vscale(ambient_skylight(g, ambient_image, g.clamp(cos_sun, -1.0, 1.0)), ambient_share)
     light = g.vscale(g.vmath("ADD", sun_light, ambient), hit)

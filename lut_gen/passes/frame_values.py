@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..clouds.shafts import ROWS as CLOUD_ROWS
+from ..clouds.veil import ROWS as VEIL_ROWS
 
 MAX_CASCADES = 8
 VECTOR_ROWS = (["Camera Position", "Camera Forward", "Camera Right", "Camera Up", "Tan Half FOV", "Sun Direction",
@@ -14,7 +15,7 @@ VECTOR_ROWS = (["Camera Position", "Camera Forward", "Camera Right", "Camera Up"
                + [f"Cascade {i} {part}" for i in range(MAX_CASCADES) for part in ("Center", "Half")]
                + ["Epipolar Axis 1", "Epipolar Axis 2", "Epipolar Phi", "Epipolar Theta", "Epipolar Depth",
                   "Epipolar Grid", "Epipolar Air Grid"]
-               + list(CLOUD_ROWS))
+               + list(CLOUD_ROWS) + list(VEIL_ROWS))
 SCALAR_ROW = "Scalars"       # x: sun strength, y: far depth of the last cascade, z: sky depth
 ROWS = VECTOR_ROWS + [SCALAR_ROW]
 SCALARS = ("Sun Strength", "Far Depth", "Sky Depth")

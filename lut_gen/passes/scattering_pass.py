@@ -25,6 +25,7 @@ import numpy as np
 
 from . import aerial, epipolar, epipolar_air
 from ..clouds import shafts as cloud_shafts
+from ..clouds import veil as cloud_veil
 from ..clouds.layer import RANGES as CLOUD_RANGES
 from ..store.atomic import atomic_path
 from ..tables.lookup import Luts
@@ -95,6 +96,8 @@ def scattering_pass(luts: Luts, image, position, depth, camera: Camera, sun_dire
     sun = np.asarray(sun_direction, dtype=np.float64) / np.linalg.norm(sun_direction)
     height, width = image.shape[:2]
     directions = camera.view_directions(width, height)
+    if settings.clouds_enabled:
+        image = veil_surfaces(luts, image, position, depth, camera, sun, settings)
     far = cascades.far_depths[-1] if cascades is not None else None
     shafts = settings.enable_light_shafts and cascades is not None
     clouds = cloud_shafts.of_settings(settings) if shafts else None
@@ -121,6 +124,16 @@ def scattering_pass(luts: Luts, image, position, depth, camera: Camera, sun_dire
     if overlay is not None:
         out = np.where(overlay[..., None] > 0.5, sampling_red(out), out)
     return out
+
+
+def veil_surfaces(luts: Luts, image, position, depth, camera: Camera, sun, settings: PassSettings):
+    """The render's surfaces behind the cloud layer's veil ("OLS Cloud Veil", lut_gen.clouds.veil),
+    before the air hazes them."""
+    layer, cloud = cloud_shafts.of_settings(settings)
+    light = cloud_veil.VeilLight.of(luts, layer, sun)
+    through, glow = cloud_veil.veil(layer, cloud, light, camera.position, position, sun)
+    geometry = np.asarray(depth) < sky_depth(camera.clip_end)
+    return cloud_veil.veiled(image, through, glow, settings.sun_strength, geometry)
 
 
 def sky_shadow_share(image, unshadowed, geometry):

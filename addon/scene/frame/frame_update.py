@@ -14,6 +14,7 @@ import bpy
 import numpy as np
 
 from ....lut_gen.clouds import shafts as cloud_shafts
+from ....lut_gen.clouds import veil as cloud_veil
 from ....lut_gen.passes import epipolar, frame_values, scattering_pass
 from ...settings import Sanitized
 from .. import names
@@ -45,6 +46,7 @@ def write_frame_values(scene, state=None, cascades=None, extra=None):
     values = shadow_maps.camera_values(state.camera)
     values["Sun Direction"], values["Sun Strength"] = state.sun_direction, state.sun_strength
     values.update(cloud_shafts.frame_rows(state.clouds))
+    values.update(cloud_veil.frame_rows(state.clouds, _veil_light(scene, state)))
     if cascades is not None:
         values.update(shadow_maps.frame_values(cascades))
     values.update(extra or {})
@@ -57,6 +59,15 @@ def write_frame_values(scene, state=None, cascades=None, extra=None):
     pixels = frame_values.pack(values, previous)
     if previous is None or not np.array_equal(pixels, previous):
         luts.write_data_image(names.FRAME_IMAGE, pixels)
+
+
+def _veil_light(scene, state):
+    """The light on the cloud layer for the veil (lut_gen.clouds.veil.VeilLight), from the
+    tables' images (packed on a farm); None while Clouds is off."""
+    info = wired_bake.bake_info(scene) if state.clouds is not None else None
+    if info is None:
+        return None
+    return cloud_veil.VeilLight.of(info.image_luts(), state.clouds, state.sun_direction)
 
 
 def _frame_key(scene, state: frame_state.FrameState):

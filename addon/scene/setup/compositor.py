@@ -193,10 +193,12 @@ def link_light_shafts(scene):
         tree.links.new(shafts.outputs["Image"], target)
     tree.links.new(layers.outputs["Position"], shafts.inputs["Position"])
     tree.links.new(layers.outputs["Depth"], shafts.inputs["Depth"])
+    veil = sync_cloud_veil(scene)
+    surface = veil.outputs["Image"] if veil is not None else layers.outputs["Image"]
     if "Surface" in shafts.inputs:      # the epipolar layout makes the whole image from these
-        tree.links.new(layers.outputs["Image"], shafts.inputs["Surface"])
+        tree.links.new(surface, shafts.inputs["Surface"])
         tree.links.new(aerial.outputs["Transmittance"], shafts.inputs["Transmittance"])
-    _ensure_layers_output(tree, layers, aerial, shafts, tone)
+    _ensure_layers_output(tree, surface, aerial, shafts, tone)
     frame = tree.nodes.get(names.FRAME_NODE)
     if frame is None:
         frame = tree.nodes.new("CompositorNodeGroup")
@@ -207,13 +209,68 @@ def link_light_shafts(scene):
     if not nodes.frame_values.is_current(frame.node_tree, bpy.data.images[names.FRAME_IMAGE]):
         frame.node_tree = nodes.build_frame_values_group(bpy.data.images[names.FRAME_IMAGE])
     tree.links.new(layers.outputs["Image"], frame.inputs["Image"])
-    for target in (aerial, shafts):
-        for output in frame.outputs:
+    for target in (aerial, shafts, veil):
+        for output in frame.outputs if target is not None else ():
             if output.name in target.inputs:
                 tree.links.new(output, target.inputs[output.name])
 
 
-def _ensure_layers_output(tree, layers, aerial, shafts, tone):
+def sync_cloud_veil(scene):
+    """Put "OLS Cloud Veil" between the render's image and the aerial perspective while Clouds
+    is on (the peaks in the cloud veiled before the air hazes them), take it out while off (the
+    tree is then as without clouds); returns the node or None. Its Position and Depth come from
+    our Render Layers node, the layer's rows from "OLS Frame Values"."""
+    tree = scene.compositing_node_group
+    aerial = tree.nodes.get(names.AERIAL_NODE) if tree is not None else None
+    group = bpy.data.node_groups.get(names.CLOUD_VEIL_GROUP)
+    veil = tree.nodes.get(names.VEIL_NODE) if tree is not None else None
+    wanted = aerial is not None and group is not None and bool(getattr(scene.ols, "clouds_enabled", False))
+    if veil is not None and not wanted:
+        remove_cloud_veil(tree)
+        return None
+    if not wanted:
+        return None
+    if veil is None:
+        if not aerial.inputs["Image"].links:
+            return None
+        source = aerial.inputs["Image"].links[0].from_socket
+        veil = tree.nodes.new("CompositorNodeGroup")
+        veil.name = veil.label = names.VEIL_NODE
+        veil.node_tree = group
+        veil.location = (aerial.location.x - 200, aerial.location.y + 150)
+        tree.links.new(source, veil.inputs["Image"])
+        tree.links.new(veil.outputs["Image"], aerial.inputs["Image"])
+        shafts = tree.nodes.get(names.SHAFTS_NODE)
+        if shafts is not None and "Surface" in shafts.inputs:
+            tree.links.new(veil.outputs["Image"], shafts.inputs["Surface"])
+        atmosphere = tree.nodes.get(names.ATMOSPHERE_NODE)
+        if atmosphere is not None and "Surface" in atmosphere.inputs:
+            tree.links.new(veil.outputs["Image"], atmosphere.inputs["Surface"])
+    elif veil.node_tree is not group:
+        veil.node_tree = group
+    layers, frame = tree.nodes.get(names.LAYERS_NODE), tree.nodes.get(names.FRAME_NODE)
+    if layers is not None:
+        tree.links.new(layers.outputs["Position"], veil.inputs["Position"])
+        tree.links.new(layers.outputs["Depth"], veil.inputs["Depth"])
+    for output in frame.outputs if frame is not None else ():
+        if output.name in veil.inputs and not veil.inputs[output.name].links:
+            tree.links.new(output, veil.inputs[output.name])
+    return veil
+
+
+def remove_cloud_veil(tree):
+    """Take the veil out, its image source feeding what it fed."""
+    veil = tree.nodes.get(names.VEIL_NODE) if tree is not None else None
+    if veil is None:
+        return
+    source = veil.inputs["Image"].links[0].from_socket if veil.inputs["Image"].links else None
+    targets = [link.to_socket for link in veil.outputs["Image"].links]
+    tree.nodes.remove(veil)
+    for target in targets if source is not None else ():
+        tree.links.new(source, target)
+
+
+def _ensure_layers_output(tree, surface, aerial, shafts, tone):
     """Our File Output node for the atmosphere layers (parked until a multilayer EXR render):
     beauty = surface x transmittance + inscattering + shafts, all before the tone mapping."""
     node = tree.nodes.get(names.ATMOSPHERE_NODE)
@@ -229,7 +286,7 @@ def _ensure_layers_output(tree, layers, aerial, shafts, tone):
         difference.location = (tone.location.x - 100, tone.location.y - 400)
     tree.links.new(shafts.outputs["Image"], difference.inputs[0])
     tree.links.new(aerial.outputs["Image"], difference.inputs[1])
-    sources = {"Beauty": shafts.outputs["Image"], "Surface": layers.outputs["Image"],
+    sources = {"Beauty": shafts.outputs["Image"], "Surface": surface,
                "Transmittance": aerial.outputs["Transmittance"], "Inscattering": aerial.outputs["Inscattering"],
                "Shafts": difference.outputs["Vector"]}
     for name, socket in sources.items():
@@ -264,6 +321,7 @@ def sync_layers_output(scene, rendering: bool):
 
 def unwire_compositor(scene):
     tree = scene.compositing_node_group
+    remove_cloud_veil(tree)
     for name in (names.ATMOSPHERE_NODE, names.SHAFTS_LAYER_NODE):
         if tree is not None and tree.nodes.get(name) is not None:
             tree.nodes.remove(tree.nodes[name])
@@ -330,6 +388,9 @@ def sync_settings(scene):
     aerial = tree.nodes.get(names.AERIAL_NODE)
     if aerial is None or aerial.node_tree is None:
         return
+    veil = tree.nodes.get(names.VEIL_NODE)
+    if (veil is None) == bool(settings.clouds_enabled):
+        sync_cloud_veil(scene)
     _set_inputs(aerial, {"Enable": float(settings.enable_light_scattering),
                          "Lighting Only": float(settings.lighting_only), "Scattering Scale": settings.scattering_scale})
     shafts = tree.nodes.get(names.SHAFTS_NODE)

@@ -47,6 +47,7 @@ def build_groups(bake_dir, engine="CYCLES"):
     nodes.build_sky_group(images["optical_depth"], params, skylight.ensure_image(), images["ambient"],
                           skylight.ensure_ground_image(), clouds_tree=cloud_tree)
     nodes.build_cloud_shadow_group(bpy.data.images[names.CLOUD_MAP_IMAGE])
+    nodes.build_cloud_veil_group(bpy.data.images[names.CLOUD_MAP_IMAGE])
     nodes.build_terrain_group(images["optical_depth"], images["ambient"], params)
     for table in nodes.COMPOSITOR_TABLES:
         nodes.build_lookup_group(images[table], dims, params, compositor=True, name=nodes.lookup_group_name(table),
