@@ -104,9 +104,12 @@ def air_to_cloud(luts: Luts, camera_height, cos_view, cloud_height, cos_view_at_
     return np.exp(-np.minimum(np.maximum(net, 0.0) @ params.extinction_matrix(), 80.0))
 
 
-def composite(clear_sky, scattering_scale, sun_strength, cloud: CloudView):
+def composite(clear_sky, scattering_scale, sun_strength, cloud: CloudView, ground=0.0):
     """The sky with clouds from the clear sky (``clear_sky``: S times the sun strength and the
-    scattering scale, as the world shows it, plus the ground): the cloud's light scales with the
-    sun strength, as the ground's does, and the sky behind it as the sky does."""
+    scattering scale, as the world shows it) and the ground the view meets (as the world shows
+    it, or 0): the cloud's light scales with the sun strength, as the ground's does, and the sky
+    behind it as the sky does; the ground behind a cloud (seen from above the layer) is dimmed
+    by it, as the "OLS Sky" group dims it."""
     behind = cloud.alpha[..., None] * cloud.sky_behind * (scattering_scale * sun_strength)
-    return clear_sky + cloud.air * (cloud.light * sun_strength - behind)
+    return (clear_sky + (1.0 - cloud.alpha[..., None]) * ground
+            + cloud.air * (cloud.light * sun_strength - behind))

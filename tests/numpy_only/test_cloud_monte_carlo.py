@@ -18,10 +18,10 @@ the direct sun where the layer lets it through. Errors are relative, RGB norms
 (|model - MC| / |MC|); ``pytest -s`` prints every geometry with the tracer's standard error.
 
 Where the model holds and where it does not (measured with the seeds and path counts below; MC
-standard errors 1-7%, largest from below a thick layer under a low sun): 11 of the 54 geometries
-are within the bar, KNOWN_MODEL_ERRORS lists the other 43 with their numbers.
-test_within_the_bar_where_the_model_holds asserts the bar on the 11;
-test_the_known_model_errors_do_not_grow holds the other 43 at their measured error or better,
+standard errors 1-7%, largest from below a thick layer under a low sun): 15 of the 54 geometries
+are within the bar, KNOWN_MODEL_ERRORS lists the other 39 with their numbers.
+test_within_the_bar_where_the_model_holds asserts the bar on the 15;
+test_the_known_model_errors_do_not_grow holds the other 39 at their measured error or better,
 until the model is fixed. What is wrong in the model, by the tracer's
 numbers (model / MC in green) and the same comparison with a black ground (ground_albedo 0 in
 both), which takes out the ground's part:
@@ -35,10 +35,12 @@ both), which takes out the ground's part:
    global irradiance to 1.9-2.5x (thick) and 1.2-1.5x (thin) under a sun at 20 and 5 deg. The
    cloud's own light (T C) alone is within 0.7-1.2x of the tracer there (with a black ground).
    (lut_gen/clouds/shafts.py may be meant to take this out; sky.view + composite alone do not.)
-2. The ground shows through the cloud from above: composite adds the clear sky's ground radiance
-   (clear_sky includes it) and alpha hides only the sky behind the cloud (S_P), and that ground
-   is lit as if no cloud shadowed it. Seen from 3 km looking down at 60 deg the model is
-   1.20-1.29x (thick) and 1.14-1.29x (thin); with a black ground 0.97-1.15x and 0.98-1.10x.
+2. Seen from above, the ground behind the cloud: the world dims it by the cloud's alpha, as the
+   "OLS Sky" group does (lut_gen.clouds.sky.composite took the ground in full before it was
+   given the ground apart: 1.14-1.29x from 3 km down at 60 deg). The thick layer is now within
+   3-8% from above at sun 60 and 20 deg. Through the thin layer the model is 0.75-0.95x: the
+   ground lit through the cloud and seen back through it (diffuse transmission both ways) is
+   missing, which 3. is part of.
 3. No light goes back and forth between the ground and the cloud base: the underside of the thick
    layer away from a sun at 60 deg is 0.86-0.88x with the default ground (albedo 0.2), 0.93-0.94x
    with a black one.
@@ -80,13 +82,13 @@ PATHS_BELOW_THICK = 16384
 # The hemisphere quadrature of the model's diffuse irradiance: Gauss-Legendre in cos(zenith).
 HEMISPHERE_ZENITHS, HEMISPHERE_AZIMUTHS = 48, 96
 
-# Geometries over the bar at these seeds and path counts, 43 of 54 (the module docstring says
-# why): name: (RGB error, model / MC in green, MC standard error, relative). Within the bar (11):
-# tau 20: below up 60 sun 20 away (0.073), above down 20 sun 20 toward (0.041) and sun 5 toward
-# (0.086); tau 2.5: below up 60 sun 60 toward (0.072) and away (0.079), sun 20 away (0.083),
-# below up 20 sun 60 toward (0.073), above down 20 sun 60 toward (0.096) and away (0.099), sun 20
-# toward (0.060), global irradiance sun 60 (0.023). Those near 0.10 are so within the tracer's
-# noise (standard errors 2-4% there): they hold at these seeds, not by a margin.
+# Geometries over the bar at these seeds and path counts, 39 of 54 (the module docstring says
+# why): name: (RGB error, model / MC in green, MC standard error, relative). Within the bar (15):
+# tau 20: below up 60 sun 20 away (0.073); above, down 60 and down 20, sun 60 and 20, toward and
+# away (0.027-0.082); tau 2.5: below up 60 sun 60 toward (0.072) and away (0.079), sun 20 away
+# (0.083), below up 20 sun 60 toward (0.073), above down 60 sun 20 away (0.093), global
+# irradiance sun 60 (0.023). Those near 0.10 are so within the tracer's noise (standard errors
+# 2-4% there): they hold at these seeds, not by a margin.
 KNOWN_MODEL_ERRORS = {
     "tau 20, below, up 60, sun 60 toward": (1.537, 2.58, 0.025),
     "tau 20, below, up 60, sun 60 away": (0.124, 0.88, 0.025),
@@ -99,16 +101,10 @@ KNOWN_MODEL_ERRORS = {
     "tau 20, below, up 20, sun 20 away": (0.938, 1.81, 0.050),
     "tau 20, below, up 20, sun 5 toward": (19.951, 20.82, 0.060),
     "tau 20, below, up 20, sun 5 away": (2.082, 3.35, 0.069),
-    "tau 20, above, down 60, sun 60 toward": (0.194, 1.21, 0.018),
-    "tau 20, above, down 60, sun 60 away": (0.186, 1.20, 0.018),
-    "tau 20, above, down 60, sun 20 toward": (0.189, 1.20, 0.029),
-    "tau 20, above, down 60, sun 20 away": (0.268, 1.29, 0.029),
-    "tau 20, above, down 60, sun 5 toward": (0.207, 1.21, 0.041),
-    "tau 20, above, down 60, sun 5 away": (0.289, 1.29, 0.045),
-    "tau 20, above, down 20, sun 60 toward": (0.136, 1.13, 0.017),
-    "tau 20, above, down 20, sun 60 away": (0.191, 1.20, 0.018),
-    "tau 20, above, down 20, sun 20 away": (0.188, 1.18, 0.024),
-    "tau 20, above, down 20, sun 5 away": (0.189, 1.08, 0.032),
+    "tau 20, above, down 60, sun 5 toward": (0.102, 1.04, 0.041),
+    "tau 20, above, down 60, sun 5 away": (0.143, 1.10, 0.045),
+    "tau 20, above, down 20, sun 5 toward": (0.119, 0.87, 0.021),
+    "tau 20, above, down 20, sun 5 away": (0.147, 0.98, 0.032),
     "tau 20, global irradiance, sun 60": (0.120, 1.10, 0.026),
     "tau 20, global irradiance, sun 20": (0.813, 1.86, 0.040),
     "tau 20, global irradiance, sun 5": (1.398, 2.51, 0.059),
@@ -120,15 +116,17 @@ KNOWN_MODEL_ERRORS = {
     "tau 2.5, below, up 20, sun 20 away": (0.283, 1.27, 0.038),
     "tau 2.5, below, up 20, sun 5 toward": (4.766, 5.49, 0.047),
     "tau 2.5, below, up 20, sun 5 away": (0.733, 1.83, 0.048),
-    "tau 2.5, above, down 60, sun 60 toward": (0.135, 1.14, 0.022),
-    "tau 2.5, above, down 60, sun 60 away": (0.190, 1.20, 0.021),
-    "tau 2.5, above, down 60, sun 20 toward": (0.177, 1.18, 0.035),
-    "tau 2.5, above, down 60, sun 20 away": (0.236, 1.25, 0.034),
-    "tau 2.5, above, down 60, sun 5 toward": (0.276, 1.26, 0.043),
-    "tau 2.5, above, down 60, sun 5 away": (0.317, 1.29, 0.047),
-    "tau 2.5, above, down 20, sun 20 away": (0.104, 1.05, 0.027),
-    "tau 2.5, above, down 20, sun 5 toward": (0.134, 0.85, 0.021),
-    "tau 2.5, above, down 20, sun 5 away": (0.168, 0.90, 0.040),
+    "tau 2.5, above, down 60, sun 60 toward": (0.256, 0.75, 0.022),
+    "tau 2.5, above, down 60, sun 60 away": (0.191, 0.82, 0.021),
+    "tau 2.5, above, down 60, sun 20 toward": (0.123, 0.90, 0.035),
+    "tau 2.5, above, down 60, sun 5 toward": (0.129, 0.99, 0.043),
+    "tau 2.5, above, down 60, sun 5 away": (0.137, 0.98, 0.047),
+    "tau 2.5, above, down 20, sun 60 toward": (0.200, 0.82, 0.018),
+    "tau 2.5, above, down 20, sun 60 away": (0.204, 0.81, 0.020),
+    "tau 2.5, above, down 20, sun 20 toward": (0.117, 0.89, 0.018),
+    "tau 2.5, above, down 20, sun 20 away": (0.139, 0.89, 0.027),
+    "tau 2.5, above, down 20, sun 5 toward": (0.169, 0.82, 0.021),
+    "tau 2.5, above, down 20, sun 5 away": (0.247, 0.79, 0.040),
     "tau 2.5, global irradiance, sun 20": (0.202, 1.23, 0.036),
     "tau 2.5, global irradiance, sun 5": (0.480, 1.46, 0.048),
 }
@@ -187,9 +185,9 @@ def model_radiance(luts, layer, height, directions, sun):
     """What the world shows (sky.view + composite, scattering scale and sun strength 1), per unit sun."""
     ranks = field.cloud_map(0, 32)             # coverage 1: every rank is a full column
     cos_sun_view = directions @ sun
-    clear = (luts.sky_radiance(height, directions[:, 2], sun[2], cos_sun_view)
-             + luts.ground_radiance(height, directions[:, 2], sun[2], cos_sun_view))
-    return sky.composite(clear, 1.0, 1.0, sky.view(luts, layer, ranks, height, directions, sun))
+    clear = luts.sky_radiance(height, directions[:, 2], sun[2], cos_sun_view)
+    ground = luts.ground_radiance(height, directions[:, 2], sun[2], cos_sun_view)
+    return sky.composite(clear, 1.0, 1.0, sky.view(luts, layer, ranks, height, directions, sun), ground)
 
 
 def model_irradiance(luts, layer, height, sun):

@@ -48,10 +48,10 @@ def build_cloudy_world(pkg, bake_dir, sun, camera_height, layer, clouds_on=1.0):
 def twin_sky(pkg, luts, ranks, layer, sun, camera_height, directions):
     cloud_sky = pkg.lut_gen.clouds.sky
     cos_sun_view = directions @ np.array(sun)
-    clear = (luts.sky_radiance(camera_height, directions[..., 2], sun[2], cos_sun_view) * SCALE
-             + luts.ground_radiance(camera_height, directions[..., 2], sun[2], cos_sun_view)) * STRENGTH
+    clear = luts.sky_radiance(camera_height, directions[..., 2], sun[2], cos_sun_view) * SCALE * STRENGTH
+    ground = luts.ground_radiance(camera_height, directions[..., 2], sun[2], cos_sun_view) * STRENGTH
     view = cloud_sky.view(luts, layer, ranks, camera_height, directions, np.array(sun))
-    return cloud_sky.composite(clear, SCALE, STRENGTH, view).mean(axis=2), view
+    return cloud_sky.composite(clear, SCALE, STRENGTH, view, ground).mean(axis=2), view
 
 
 def sun_at(elevation, azimuth=30.0):
