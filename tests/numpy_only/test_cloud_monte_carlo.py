@@ -56,9 +56,10 @@ import numpy as np
 import pytest
 
 import lut_gen
-from lut_gen.clouds import field, shadow, sky
+from lut_gen.clouds import field, shadow, shafts, sky
 from lut_gen.clouds.layer import CloudLayer
 from lut_gen.model import spectrum
+from lut_gen.passes import aerial
 from lut_gen.verify import cloud_monte_carlo as cmc
 from lut_gen.verify import slab_monte_carlo
 from lut_gen.verify.monte_carlo import radiance_by_order
@@ -279,3 +280,37 @@ def test_the_known_model_errors_do_not_grow(comparison):
         if error > recorded * 1.1 + SIGMAS * se:
             grown[name] = (round(error, 3), recorded)
     assert not grown, grown
+
+
+@pytest.mark.slow
+def test_light_shafts_take_the_clouds_shadow_out_of_the_air(luts, comparison):
+    """With light shafts on (the default; LUT single scattering, multiple UNOCCLUDED), the pass
+    weights the air's single scattering in front of the cloud by the cloud's transmittance
+    toward the sun (lut_gen.clouds.shafts): under a uniform layer, world + shafts against the
+    tracer. Measured relative errors: thick layer, looking up 60 deg 0.02-0.19 (world alone up
+    to 1.5); looking up 20 deg toward a sun at 20 / 5 deg 1.6 / 3.5 (world alone 18 / 20); thin
+    layer 0.04-0.20, but 0.79 toward a sun at 5 deg (world alone 4.8). What stays: the air's multiple scattering under the cloud is still the
+    clear sky's (OCCLUDED takes it out and lands at 0.57-0.85x: the cloud base's light on that
+    air is in neither mode)."""
+    ranks = field.cloud_map(0, 32)
+    improved = {}
+    for layer_name, layer in LAYERS.items():
+        for view_name in ("below, up 60", "below, up 20"):
+            height, elevation = VIEWS[view_name]
+            view = direction(elevation)
+            camera = np.array([0.0, 0.0, height])
+            end = camera + view * shafts.march_distance(layer, camera, view[None], PARAMS.earth_radius)[0]
+            for j, (sun_elevation, side) in enumerate(SUNS):
+                sun = SUN_VECTORS[j]
+                name = f"{layer_name}, {view_name}, sun {sun_elevation:.0f} {side}"
+                world, mc, _ = comparison[name]
+                lit = aerial.light_shafts(luts, camera[None], end[None], sun,
+                                          lambda points: shadow.ground_transmittance(layer, ranks, points, sun), 64)[0]
+                with_shafts = world + lit - aerial.segment_inscattering(luts, camera[None], end[None], sun)[0]
+                improved[name] = (relative_error(world, mc), relative_error(with_shafts, mc))
+                print(f"{name:42s} world {improved[name][0]:6.3f}  world + shafts {improved[name][1]:6.3f}")
+    # Toward the sun, where the air's forward peak lies in the cloud's shadow, the shafts take
+    # most of the excess out.
+    toward = {name: errors for name, errors in improved.items() if "toward" in name and errors[0] > 0.3}
+    assert toward and all(after < 0.5 * before for before, after in toward.values()), toward
+    assert np.median([after for _, after in improved.values()]) < 0.2
