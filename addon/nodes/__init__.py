@@ -13,7 +13,7 @@ from ..scene import names
 from . import epipolar, frame_values, lookup  # noqa: F401 (their helpers are used as nodes.<module>.<name>)
 from .aerial import build_aerial_group
 from .cloud_shadow import build_cloud_shadow_group
-from .cloud_veil import build_cloud_veil_group
+from .cloud_veil import build_cloud_veil_group, build_cloud_veil_step_group
 from .clouds import build_cloud_group
 from .frame_values import build_frame_values_group
 from .inscattering import build_section_group, lookup_group_name, section_group_name
@@ -40,6 +40,7 @@ class Group:
 _AERIAL_TEST = "tests/twins/test_aerial_pass.py::test_aerial_perspective_pass_matches_twin"
 _SHAFTS_TEST = "tests/twins/test_light_shafts_pass.py::test_every_scattering_mode_matches_the_twin_and_shafts_show"
 _SKY_TEST = "tests/twins/test_sky_group.py::test_sky_render_matches_numpy_twin"
+_VEIL_TEST = "tests/twins/test_cloud_veil.py::test_peaks_in_the_cloud_are_veiled_as_the_twin_says"
 _CLOUDS_TEST = "tests/twins/test_cloud_sky.py::test_cloudy_sky_render_matches_numpy_twin"
 
 GROUPS = (
@@ -52,8 +53,8 @@ GROUPS = (
           "tests/twins/test_aerial_pass.py::test_segment_transmittance_just_below_the_horizon_matches_twin"),
     Group(names.SKY_GROUP, build_sky_group, "lut_gen.tables.lookup.Luts.sky_radiance", _SKY_TEST),
     Group(names.CLOUDS_GROUP, build_cloud_group, "lut_gen.clouds.sky.view", _CLOUDS_TEST),
-    Group(names.CLOUD_VEIL_GROUP, build_cloud_veil_group, "lut_gen.clouds.veil.veil",
-          "tests/twins/test_cloud_veil.py::test_peaks_in_the_cloud_are_veiled_as_the_twin_says"),
+    Group(names.CLOUD_VEIL_GROUP, build_cloud_veil_group, "lut_gen.clouds.veil.veiled", _VEIL_TEST),
+    Group(names.CLOUD_VEIL_STEP_GROUP, build_cloud_veil_step_group, "lut_gen.clouds.veil.veil", _VEIL_TEST),
     Group(names.CLOUD_SHADOW_GROUP, build_cloud_shadow_group, "lut_gen.clouds.shadow.sun_transmittance",
           "tests/twins/test_cloud_shadow.py::test_cloud_shadows_on_a_plain_match_the_twin"),
     Group(names.TERRAIN_GROUP, build_terrain_group, "lut_gen.passes.terrain.terrain_radiance",

@@ -59,7 +59,8 @@ def ensure_map_image(seed: int):
 
 def _point_groups_at(image):
     """Image nodes of the cloud groups that lost the map (deleted, replaced) read it again."""
-    for group_name in (names.CLOUDS_GROUP, names.CLOUD_SHADOW_GROUP, names.SHADOW_TEST_GROUP, names.CLOUD_VEIL_GROUP):
+    for group_name in (names.CLOUDS_GROUP, names.CLOUD_SHADOW_GROUP, names.SHADOW_TEST_GROUP,
+                       names.CLOUD_VEIL_STEP_GROUP):
         tree = bpy.data.node_groups.get(group_name)
         if tree is None:
             continue

@@ -45,6 +45,7 @@ SKY_GROUP = "OLS Sky"
 CLOUDS_GROUP = "OLS Clouds"
 CLOUD_SHADOW_GROUP = "OLS Cloud Shadow"
 CLOUD_VEIL_GROUP = "OLS Cloud Veil"
+CLOUD_VEIL_STEP_GROUP = "OLS Cloud Veil Step"
 CLOUD_SHADOW_OBJECT = "OLS Cloud Shadows"            # the shadow-only layer
 CLOUD_SHADOW_MATERIAL = "OLS Cloud Shadows"
 TERRAIN_GROUP = "OLS Terrain"
