@@ -1,16 +1,15 @@
 """The cloud layer's images and settings in the .blend: the cloud map (from the seed) and the
 higher-orders table, both packed into the file so that every farm worker renders the same
-clouds, and the CloudLayer the numpy code reads from scene.ols."""
+clouds (the numpy code reads them through frame/cloud_map.py)."""
 from __future__ import annotations
 
 import bpy
 import numpy as np
 
 from ...lut_gen.clouds import field, slab
-from ...lut_gen.clouds.layer import RANGES, CloudLayer
+from ...lut_gen.clouds.layer import RANGES
 from . import names
 from . import sun as sun_lamps
-from .frame.cloud_map import map_ranks, numpy_layer  # noqa: F401 (the scene's clouds for numpy, here with the rest)
 from .setup import drivers
 
 # Cloud-group input <- scene.ols control, shared by the sky group (as "Cloud <input>") and the
@@ -76,10 +75,6 @@ def ensure_table_image():
     _fill(image, pixels)
     return image
 
-
-def layer_of(settings) -> CloudLayer:
-    """The scene's cloud layer, clamped as the drivers clamp it (settings: scene.ols, Sanitized)."""
-    return CloudLayer.of(settings)
 
 
 def seed_of(scene) -> int:

@@ -46,7 +46,7 @@ def plain_under_clouds(scene, sun_elevation, coverage, seed=5, density=None):
     clouds.ensure_shadow_layer(scene, sun)
     bpy.context.view_layer.update()
     direction = np.array(sun.matrix_world.col[2][:3])
-    return clouds.layer_of(settings), clouds.map_ranks(map_image), direction
+    return extension_module("lut_gen.clouds.layer").CloudLayer.of(settings), extension_module("addon.scene.frame.cloud_map").map_ranks(map_image), direction
 
 
 def ground_points(supersample=4):
@@ -93,11 +93,11 @@ def test_a_deleted_cloud_map_comes_back_from_the_seed(addon_package, tmp_path):
     scene = empty_scene(width=16, height=16, samples=1)
     plain_under_clouds(scene, 40.0, 0.5, seed=9)
     clouds = extension_module("addon.scene.clouds")
-    before = clouds.map_ranks(bpy.data.images["OLS Cloud Map"])
+    before = extension_module("addon.scene.frame.cloud_map").map_ranks(bpy.data.images["OLS Cloud Map"])
     bpy.data.images.remove(bpy.data.images["OLS Cloud Map"])
     clouds.ensure_map_image(9)
     image = bpy.data.images["OLS Cloud Map"]
-    np.testing.assert_array_equal(clouds.map_ranks(image), before)
+    np.testing.assert_array_equal(extension_module("addon.scene.frame.cloud_map").map_ranks(image), before)
     shadow_tree = bpy.data.node_groups["OLS Cloud Shadow"]
     assert [n.image for n in shadow_tree.nodes if n.label == "OLS Cloud Map"] == [image]
 

@@ -42,7 +42,7 @@ def build_cloudy_world(pkg, bake_dir, sun, camera_height, layer, clouds_on=1.0):
               "Cloud Offset": (layer.offset[0], layer.offset[1], 0.0)}
     for name, value in values.items():
         group.inputs[name].default_value = value
-    return luts, clouds.map_ranks(map_image)
+    return luts, extension_module("addon.scene.frame.cloud_map").map_ranks(map_image)
 
 
 def twin_sky(pkg, luts, ranks, layer, sun, camera_height, directions):

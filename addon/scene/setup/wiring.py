@@ -15,7 +15,7 @@ from ... import nodes
 from ...settings import Sanitized
 from ....lut_gen.tables.lookup import TABLES_WITH_MIE
 from . import compositor, drivers
-from ..frame import epipolar_tables, frame_update, shadow_maps, skylight
+from ..frame import cloud_map, epipolar_tables, frame_update, shadow_maps, skylight
 from ..tables import luts, wired_bake
 from .. import sun as sun_lamps
 from .. import clouds, names
@@ -298,7 +298,7 @@ def refresh(scene, force=False):
     frame_update.write_frame_values(scene)
     clouds.repair(scene)
     position = scene.camera.matrix_world.translation if scene.camera else (0.0, 0.0, 0.0)
-    skylight.update(info, sun_lamps.direction_to_sun(sun), position[2], force, clouds=clouds.numpy_layer(scene),
+    skylight.update(info, sun_lamps.direction_to_sun(sun), position[2], force, clouds=cloud_map.numpy_layer(scene),
                     camera_xy=(position[0], position[1]))
 
 
