@@ -1,21 +1,22 @@
 """"OLS Clouds": what a view ray of the world sees of the cloud layer. Twin:
-lut_gen.clouds.sky.view (the formulas and their reasons are there); the sky group composites
-it (addon/nodes/sky.py). It reads the same cloud map and higher-orders table images the numpy
-code reads, so the twin is exact up to float32.
+lut_gen.clouds.sky.view with air=lut_gen.clouds.air_map.lookup (the formulas and their reasons
+are there); the sky group composites it (addon/nodes/sky.py). It reads the same cloud map,
+higher-orders table and air map images the numpy code reads, so the twin is exact up to float32.
+The air map (the terms that depend on the ray's direction alone, recomputed per frame by
+scene/frame/skylight.py) replaced a 4D sky look-up and four optical-depth look-ups per ray.
 
-Outputs: Alpha (the share of the light behind the cloud it hides), Light (the cloud's own
-light per unit sun), Air (transmittance camera -> cloud), Sky Behind (the sky's radiance from
-the cloud on, per unit sun, from the 4D table).
+Outputs, as the camera sees them (times the air's transmittance T camera -> cloud): Alpha (the
+share of the light behind the cloud it hides), Light (T x the cloud's own light per unit sun),
+Sky Behind (T x the sky's radiance from the cloud on, per unit sun, from the 4D table).
 """
 from __future__ import annotations
 
 import math
 
-from ...lut_gen.clouds import field, slab
+from ...lut_gen.clouds import air_map, field, slab
 from ..scene import names
 from .builder import group_io, new_group
-from .optical import (ambient_skylight, below_horizon, net_density_to_top, transmittance_from_net_density,
-                      transmittance_to_top)
+from .optical import below_horizon
 
 INPUTS = [
     ("View", "NodeSocketVector", (0.0, 0.0, 1.0)),            # unit direction of the ray
@@ -30,7 +31,7 @@ INPUTS = [
     ("Offset", "NodeSocketVector", (0.0, 0.0, 0.0)),
 ]
 OUTPUTS = [("Alpha", "NodeSocketFloat", None), ("Light", "NodeSocketVector", None),
-           ("Air", "NodeSocketVector", None), ("Sky Behind", "NodeSocketVector", None)]
+           ("Sky Behind", "NodeSocketVector", None)]
 
 
 def phase(g, cos_theta):
@@ -135,16 +136,19 @@ def thickness_fraction(g, map_image, uv, threshold):
     return g.clamp(g.div(g.sub(rank, threshold), field.SOFTNESS), 0.0, 1.0)
 
 
-def _air_to_cloud(g, image, height, cos_view, cloud_height, cos_at_cloud, params):
-    """lut_gen.clouds.sky.air_to_cloud: two look-ups, their ends chosen by the ray's direction."""
-    height = g.math("MINIMUM", height, params.atmosphere_height)
-    down = g.math("LESS_THAN", cos_view, 0.0)
-    near_h, far_h = g.select(height, cloud_height, down), g.select(cloud_height, height, down)
-    near_c = g.select(cos_view, g.mul(cos_at_cloud, -1.0), down)
-    far_c = g.select(cos_at_cloud, g.mul(cos_view, -1.0), down)
-    near = net_density_to_top(g, image, near_h, g.clamp(near_c, -1.0, 1.0), params)
-    far = net_density_to_top(g, image, far_h, g.clamp(far_c, -1.0, 1.0), params)
-    return transmittance_from_net_density(g, *[g.math("MAXIMUM", g.sub(a, b), 0.0) for a, b in zip(near, far)], params)
+def air_terms(g, air_image, view):
+    """lut_gen.clouds.air_map.lookup: the three tiles' colours (sun, ambient, behind) at the
+    ray's direction ``view``."""
+    view_x, view_y, view_z = g.separate(view)
+    width, height = air_map.SIZE
+    u = g.add(g.div(g.math("ARCTAN2", view_x, view_y), 2 * math.pi), 0.5)
+    elevation = g.math("ARCSINE", g.clamp(view_z, -1.0, 1.0))
+    v = g.mul_add(g.mul(g.math("SIGN", elevation), g.math("SQRT", g.div(g.math("ABSOLUTE", elevation), 0.5 * math.pi))),
+                  0.5, 0.5)
+    rows = len(air_map.TILES) * (height + 2)
+    in_tile = g.mul(v, height / rows)
+    return [g.image(air_image, g.combine(u, g.add(in_tile, (tile * (height + 2) + 1) / rows), 1.0), repeat=True)
+            for tile in range(len(air_map.TILES))]
 
 
 def middle_hit(g, height, middle, view_z, earth_radius):
@@ -162,7 +166,7 @@ def middle_hit(g, height, middle, view_z, earth_radius):
     return distance, g.select(goes_down, 1.0, below), b
 
 
-def build_cloud_group(map_image, table_image, optical_image, ambient_image, params, lookup_tree):
+def build_cloud_group(map_image, table_image, air_image, params):
     tree = new_group(names.CLOUDS_GROUP)
     g, gin, gout = group_io(tree, INPUTS, OUTPUTS)
     view = g.vmath("NORMALIZE", gin.outputs["View"])
@@ -194,22 +198,13 @@ def build_cloud_group(map_image, table_image, optical_image, ambient_image, para
     alpha = g.sub(1.0, g.math("EXPONENT", g.div(g.mul(tau, -1.0), abs_view)))
     reflected = g.math("LESS_THAN", g.mul(cos_view, cos_sun), 0.0)
     cos_az = _cos_azimuth(g, cos_view, cos_sun, cos_sun_view)
-    radiance = g.add(_single_scattering(g, tau, mu_s, abs_view, cos_sun_view, reflected),
-                     _higher_orders(g, table_image, tau, abs_sun, mu_s, abs_view, cos_az, reflected))
-    sun_light = g.vscale(transmittance_to_top(g, optical_image, middle, cos_sun, params), radiance)
+    sun_share = g.add(_single_scattering(g, tau, mu_s, abs_view, cos_sun_view, reflected),
+                      _higher_orders(g, table_image, tau, abs_sun, mu_s, abs_view, cos_az, reflected))
     back, through = diffuse_two_stream(g, tau)
-    ambient_share = g.div(g.select(back, through, g.math("GREATER_THAN", cos_view, 0.0)), math.pi)
-    ambient = g.vscale(ambient_skylight(g, ambient_image, g.clamp(cos_sun, -1.0, 1.0)), ambient_share)
-    light = g.vscale(g.vmath("ADD", sun_light, ambient), hit)
-    air = _air_to_cloud(g, optical_image, height, view_z, middle, cos_view, params)
+    ambient_share = g.select(back, through, g.math("GREATER_THAN", cos_view, 0.0))
+    sun_colour, ambient_colour, behind = air_terms(g, air_image, view)
+    light = g.vscale(g.vmath("ADD", g.vscale(sun_colour, sun_share), g.vscale(ambient_colour, ambient_share)), hit)
 
-    lookup = g.node("ShaderNodeGroup")
-    lookup.node_tree = lookup_tree
-    for name, value in (("Height", middle), ("Cos View Zenith", g.clamp(cos_view, -1.0, 1.0)),
-                        ("Cos Sun Zenith", g.clamp(cos_sun, -1.0, 1.0)), ("Cos Sun View", cos_sun_view)):
-        g.feed(lookup.inputs[name], value)
-    sky_behind = g.vscale(lookup.outputs["Radiance"], hit)
-
-    for name, socket in (("Alpha", g.mul(alpha, hit)), ("Light", light), ("Air", air), ("Sky Behind", sky_behind)):
+    for name, socket in (("Alpha", g.mul(alpha, hit)), ("Light", light), ("Sky Behind", g.vscale(behind, hit))):
         g.links.new(socket, gout.inputs[name])
     return tree

@@ -83,10 +83,10 @@ def _cloudy(g, gin, clouds_tree, view, sun, height, sky, disc, ground, strength,
     g.feed(node.inputs["Camera XY"], gin.outputs["Camera XY"])
     for name, _, _ in CLOUD_INPUTS:
         g.feed(node.inputs[name], gin.outputs[f"Cloud {name}"])
-    alpha, light, air, behind = (node.outputs[name] for name in ("Alpha", "Light", "Air", "Sky Behind"))
+    alpha, light, behind = (node.outputs[name] for name in ("Alpha", "Light", "Sky Behind"))
     cloud_light = g.vmath("SUBTRACT", g.vscale(light, strength), g.vscale(behind, g.mul(alpha, sky_scale)))
     clear = g.sub(1.0, alpha)
-    return (g.vmath("MULTIPLY_ADD", air, cloud_light, sky), g.vscale(disc, clear), g.vscale(ground, clear))
+    return (g.vmath("ADD", sky, cloud_light), g.vscale(disc, clear), g.vscale(ground, clear))
 
 
 def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, ground_light_image, clouds_tree=None):

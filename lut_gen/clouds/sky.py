@@ -15,8 +15,13 @@ The air between the camera and P hazes it. With S the sky's radiance from the ca
 the sky's from P along the same ray (both from the 4D table), eq. (8) gives the air's light in
 front of the cloud as S - T S_P, so
     sky with clouds = S + T (C - alpha S_P),
-T the air's transmittance camera -> P and C the cloud's light. Far clouds, with T small, fade
-into the sky.
+T the air's transmittance camera -> P and C the cloud's light.
+
+The terms split in two. What depends on the ray's direction alone (T, the sun's colour at P, the
+ambient skylight at P, S_P: AirTerms) is smooth across the sky; what depends on the column met
+(tau, hence alpha and how much of the sun and skylight the column sends on) is as sharp as the
+cloud map. The node group reads the smooth part from a per-frame panorama (air_map.py) and
+computes the sharp part per ray; ``view`` takes either.
 """
 from __future__ import annotations
 
@@ -34,9 +39,24 @@ from .layer import CloudLayer, middle_hit
 class CloudView:
     hit: np.ndarray            # (...) the ray meets a cloud column (before the ground)
     alpha: np.ndarray          # (...) the fraction of the light behind the cloud it hides
-    light: np.ndarray          # (..., 3) C: the cloud's own light per unit sun (sun + ambient)
-    air: np.ndarray            # (..., 3) T: transmittance camera -> P (1 where no cloud is met)
-    sky_behind: np.ndarray     # (..., 3) S_P: the sky's radiance from P on (the table's, per unit sun)
+    light: np.ndarray          # (..., 3) T C: the cloud's own light per unit sun as the camera sees it
+    sky_behind: np.ndarray     # (..., 3) T S_P: the table's sky from P on (per unit sun) as the camera sees it
+
+
+@dataclass
+class AirTerms:
+    """Per view direction, each already times T (transmittance camera -> P)."""
+    sun: np.ndarray            # (..., 3) T x the transmittance from P to the sun
+    ambient: np.ndarray        # (..., 3) T x the ambient skylight at P / pi
+    behind: np.ndarray         # (..., 3) T x S_P
+
+
+@dataclass
+class _Geometry:
+    point: np.ndarray          # (n, 3) P, camera at (0, 0, height)
+    cos_view: np.ndarray       # (n,) the ray's zenith cosine at P
+    cos_sun: np.ndarray        # (n,) the sun's zenith cosine at P
+    cos_sun_view: np.ndarray   # (n,)
 
 
 def column_fraction(layer: CloudLayer, cloud, x, y):
@@ -44,9 +64,42 @@ def column_fraction(layer: CloudLayer, cloud, x, y):
     return field.thickness_fraction(field.sample(cloud, u, v), layer.coverage)
 
 
-def view(luts: Luts, layer: CloudLayer, cloud, camera_height: float, directions, sun, camera_xy=(0.0, 0.0)) -> CloudView:
+def _geometry(params, layer, height, rays, distance, sun) -> _Geometry:
+    point = np.array([0.0, 0.0, height]) + rays * distance[:, None]
+    radius = params.earth_radius + layer.middle
+    centre_to_point = point + np.array([0.0, 0.0, params.earth_radius])
+    return _Geometry(point, (rays * centre_to_point).sum(-1) / radius, centre_to_point @ sun / radius, rays @ sun)
+
+
+def _air_terms(luts: Luts, layer: CloudLayer, height, rays, at: _Geometry) -> AirTerms:
+    air = air_to_cloud(luts, height, rays[:, 2], layer.middle, at.cos_view)
+    cos_sun = np.clip(at.cos_sun, -1.0, 1.0)
+    return AirTerms(air * luts.transmittance_to_top(layer.middle, at.cos_sun),
+                    air * luts.ambient_skylight(cos_sun) / np.pi,
+                    air * luts.sky_radiance(layer.middle, np.clip(at.cos_view, -1.0, 1.0), cos_sun, at.cos_sun_view))
+
+
+def air_terms(luts: Luts, layer: CloudLayer, camera_height: float, directions, sun) -> AirTerms:
+    """AirTerms of every ray that meets the middle sphere, the ground not minded (the air map
+    must be smooth across the horizon); 0 elsewhere."""
+    directions = np.asarray(directions, dtype=np.float64)
+    height = max(float(camera_height), 0.0)
+    distance, hit = middle_hit(layer, height, directions, luts.params.earth_radius)
+    terms = _air_terms(luts, layer, height, directions[hit],
+                       _geometry(luts.params, layer, height, directions[hit], distance[hit], np.asarray(sun, float)))
+    shape = directions.shape[:-1] + (3,)
+    out = AirTerms(np.zeros(shape), np.zeros(shape), np.zeros(shape))
+    for name in ("sun", "ambient", "behind"):
+        getattr(out, name)[hit] = getattr(terms, name)
+    return out
+
+
+def view(luts: Luts, layer: CloudLayer, cloud, camera_height: float, directions, sun, camera_xy=(0.0, 0.0),
+         air=None) -> CloudView:
     """``camera_xy``: the camera's world x, y, where the map is read (the sky itself does not
-    depend on it; the clouds and their shadows on the ground must agree)."""
+    depend on it; the clouds and their shadows on the ground must agree). ``air``: a function
+    of the rays (n, 3) giving their AirTerms (the node group's: air_map.lookup); computed
+    exactly when None."""
     params = luts.params
     directions = np.asarray(directions, dtype=np.float64)
     sun = np.asarray(sun, dtype=np.float64)
@@ -55,50 +108,43 @@ def view(luts: Luts, layer: CloudLayer, cloud, camera_height: float, directions,
     hit = hit & ~(ground.hits_ground(params, min(height, params.atmosphere_height), directions[..., 2])
                   & (height < layer.middle))
     # Only the rays that meet the layer are shaded (the lighting panorama's lower half never does).
-    rays, distance = directions[hit], distance[hit]
-    point = np.array([0.0, 0.0, height]) + rays * distance[:, None]
-    radius = params.earth_radius + layer.middle
-    centre_to_point = point + np.array([0.0, 0.0, params.earth_radius])
-    cos_view = (rays * centre_to_point).sum(-1) / radius
-    cos_sun = centre_to_point @ sun / radius
-    cos_sun_view = rays @ sun
-    fraction = column_fraction(layer, cloud, point[:, 0] + camera_xy[0], point[:, 1] + camera_xy[1])
+    rays = directions[hit]
+    at = _geometry(params, layer, height, rays, distance[hit], sun)
+    terms = _air_terms(luts, layer, height, rays, at) if air is None else air(rays)
+    fraction = column_fraction(layer, cloud, at.point[:, 0] + camera_xy[0], at.point[:, 1] + camera_xy[1])
     tau = layer.density * layer.thickness * fraction
-    abs_view = np.maximum(np.abs(cos_view), slab.MIN_COS)
-    abs_sun = np.abs(cos_sun)
+    abs_view = np.maximum(np.abs(at.cos_view), slab.MIN_COS)
+    abs_sun = np.abs(at.cos_sun)
     # The sun on the viewer's side of the slab: seen from below (looking up) with the sun under
     # the cloud's horizontal, or from above with it over.
-    reflected = (cos_view * cos_sun) < 0
-    cos_az = slab.cos_azimuth(cos_view, cos_sun, cos_sun_view)
-    sun_light = luts.transmittance_to_top(layer.middle, cos_sun) * slab.radiance(
-        tau, abs_sun, abs_view, cos_sun_view, cos_az, reflected)[:, None]
+    reflected = (at.cos_view * at.cos_sun) < 0
+    cos_az = slab.cos_azimuth(at.cos_view, at.cos_sun, at.cos_sun_view)
+    sun_share = slab.radiance(tau, abs_sun, abs_view, at.cos_sun_view, cos_az, reflected)
     back, through = slab.diffuse_two_stream(tau)
-    ambient = luts.ambient_skylight(np.clip(cos_sun, -1.0, 1.0)) / np.pi * np.where(
-        cos_view > 0, through, back)[:, None]
+    ambient_share = np.where(at.cos_view > 0, through, back)
     shape = directions.shape[:-1]
-    alpha, light = np.zeros(shape), np.zeros(shape + (3,))
-    air, sky_behind = np.ones(shape + (3,)), np.zeros(shape + (3,))
+    alpha, light, sky_behind = np.zeros(shape), np.zeros(shape + (3,)), np.zeros(shape + (3,))
     alpha[hit] = -np.expm1(-tau / abs_view)
-    light[hit] = sun_light + ambient
-    air[hit] = air_to_cloud(luts, height, rays[:, 2], layer.middle, cos_view)
-    sky_behind[hit] = luts.sky_radiance(layer.middle, np.clip(cos_view, -1.0, 1.0), np.clip(cos_sun, -1.0, 1.0),
-                                        cos_sun_view)
-    return CloudView(hit, alpha, light, air, sky_behind)
+    light[hit] = terms.sun * sun_share[:, None] + terms.ambient * ambient_share[:, None]
+    sky_behind[hit] = terms.behind
+    return CloudView(hit, alpha, light, sky_behind)
 
 
 def air_to_cloud(luts: Luts, camera_height, cos_view, cloud_height, cos_view_at_cloud):
     """Transmittance camera -> cloud as the difference of the net densities to the top from the
-    ray's lower end and from its upper end, both looking up along it (from above the layer, the
-    cloud is the lower end). Rays that meet a cloud never run into the ground, so the difference
-    needs none of aerial.segment_transmittance's care (reversed rays, a quadrature at the
-    horizon), which was a third of the cloud group's nodes."""
+    ray's lower end and from its upper end, both looking up along it: from below the layer the
+    camera is the lower end (a ray a little below the horizon dips and climbs back to the
+    layer, and the camera's net density covers the dip), from above the cloud is. Rays that
+    meet a cloud never run into the ground, so the difference needs none of
+    aerial.segment_transmittance's care (reversed rays, a quadrature at the horizon), which was
+    a third of the cloud group's nodes."""
     params = luts.params
     camera_height = min(camera_height, params.atmosphere_height)
     cos_view = np.asarray(cos_view, dtype=np.float64)
-    down = cos_view < 0
-    near_h, far_h = np.where(down, cloud_height, camera_height), np.where(down, camera_height, cloud_height)
-    near_c = np.where(down, -cos_view_at_cloud, cos_view)
-    far_c = np.where(down, -cos_view, cos_view_at_cloud)
+    if camera_height >= cloud_height:
+        near_h, near_c, far_h, far_c = cloud_height, -np.asarray(cos_view_at_cloud), camera_height, -cos_view
+    else:
+        near_h, near_c, far_h, far_c = camera_height, cos_view, cloud_height, cos_view_at_cloud
     net = (luts.net_density_to_top(near_h, np.clip(near_c, -1.0, 1.0)).astype(np.float64)
            - luts.net_density_to_top(far_h, np.clip(far_c, -1.0, 1.0)))
     return np.exp(-np.minimum(np.maximum(net, 0.0) @ params.extinction_matrix(), 80.0))
@@ -111,5 +157,4 @@ def composite(clear_sky, scattering_scale, sun_strength, cloud: CloudView, groun
     behind it as the sky does; the ground behind a cloud (seen from above the layer) is dimmed
     by it, as the "OLS Sky" group dims it."""
     behind = cloud.alpha[..., None] * cloud.sky_behind * (scattering_scale * sun_strength)
-    return (clear_sky + (1.0 - cloud.alpha[..., None]) * ground
-            + cloud.air * (cloud.light * sun_strength - behind))
+    return clear_sky + (1.0 - cloud.alpha[..., None]) * ground + cloud.light * sun_strength - behind

@@ -28,10 +28,13 @@ def build_cloudy_world(pkg, bake_dir, sun, camera_height, layer, clouds_on=1.0):
     nodes = extension_module("addon.nodes")
     clouds = extension_module("addon.scene.clouds")
     skylight = extension_module("addon.scene.frame.skylight")
-    lookup = nodes.build_lookup_group(images["multiple"], luts.dims, luts.params, mie_image=images["single_mie"])
+    nodes.build_lookup_group(images["multiple"], luts.dims, luts.params, mie_image=images["single_mie"])
     map_image = clouds.ensure_map_image(layer.seed)
-    cloud_tree = nodes.build_cloud_group(map_image, clouds.ensure_table_image(), images["optical_depth"],
-                                         images["ambient"], luts.params, lookup)
+    # The air map as the add-on writes it each frame (scene/frame/skylight.py).
+    atlas = pkg.lut_gen.clouds.air_map.compute(luts, layer, camera_height, np.array(sun))
+    air_image = skylight.ensure_cloud_air_image()
+    air_image.pixels.foreach_set(np.concatenate([atlas, np.ones(atlas.shape[:2] + (1,), np.float32)], -1).ravel())
+    cloud_tree = nodes.build_cloud_group(map_image, clouds.ensure_table_image(), air_image, luts.params)
     sky = nodes.build_sky_group(images["optical_depth"], luts.params, skylight.ensure_image(), images["ambient"],
                                 skylight.ensure_ground_image(), clouds_tree=cloud_tree)
     group = world_of_group(bpy.context.scene, sky)
@@ -42,15 +45,16 @@ def build_cloudy_world(pkg, bake_dir, sun, camera_height, layer, clouds_on=1.0):
               "Cloud Offset": (layer.offset[0], layer.offset[1], 0.0)}
     for name, value in values.items():
         group.inputs[name].default_value = value
-    return luts, extension_module("addon.scene.frame.cloud_map").map_ranks(map_image)
+    return luts, extension_module("addon.scene.frame.cloud_map").map_ranks(map_image), atlas
 
 
-def twin_sky(pkg, luts, ranks, layer, sun, camera_height, directions):
+def twin_sky(pkg, luts, ranks, layer, sun, camera_height, directions, atlas):
     cloud_sky = pkg.lut_gen.clouds.sky
     cos_sun_view = directions @ np.array(sun)
     clear = luts.sky_radiance(camera_height, directions[..., 2], sun[2], cos_sun_view) * SCALE * STRENGTH
     ground = luts.ground_radiance(camera_height, directions[..., 2], sun[2], cos_sun_view) * STRENGTH
-    view = cloud_sky.view(luts, layer, ranks, camera_height, directions, np.array(sun))
+    view = cloud_sky.view(luts, layer, ranks, camera_height, directions, np.array(sun),
+                          air=pkg.lut_gen.clouds.air_map.lookup(atlas))
     return cloud_sky.composite(clear, SCALE, STRENGTH, view, ground).mean(axis=2), view
 
 
@@ -66,10 +70,10 @@ def test_cloudy_sky_render_matches_numpy_twin(addon_package, bake_dir, tmp_path,
     scene = empty_scene(width=128, height=64, samples=32)
     panorama_camera(scene)
     sun = sun_at(sun_elevation)
-    luts, ranks = build_cloudy_world(addon_package, bake_dir, sun, 2.0, layer)
+    luts, ranks, atlas = build_cloudy_world(addon_package, bake_dir, sun, 2.0, layer)
     rendered = render_rgb(scene, tmp_path / "clouds.exr")
     directions = panorama_directions(128, 64, supersample=4)
-    twin, view = twin_sky(addon_package, luts, ranks, layer, sun, 2.0, directions)
+    twin, view = twin_sky(addon_package, luts, ranks, layer, sun, 2.0, directions, atlas)
     save_png(tmp_path / "clouds.png", rendered, exposure=1.0 / max(np.percentile(twin, 90), 1e-9))
 
     near_sun = (directions @ np.array(sun) > math.cos(math.radians(3.0))).any(axis=2)
@@ -80,7 +84,7 @@ def test_cloudy_sky_render_matches_numpy_twin(addon_package, bake_dir, tmp_path,
     assert np.median(err[~near_sun]) <= 0.02, np.median(err[~near_sun])
     assert np.median(err[clouded & ~near_sun]) <= 0.03, np.median(err[clouded & ~near_sun])
     # The clouds change the picture: the twin without them is far off where they are.
-    clear, _ = twin_sky(addon_package, luts, ranks, layer.__class__(coverage=0.0), sun, 2.0, directions)
+    clear, _ = twin_sky(addon_package, luts, ranks, layer.__class__(coverage=0.0), sun, 2.0, directions, atlas)
     assert np.median(np.abs(clear @ LUMINANCE - twin @ LUMINANCE)[clouded] / (twin @ LUMINANCE)[clouded]) > 0.1
 
 

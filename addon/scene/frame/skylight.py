@@ -13,6 +13,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
+from ....lut_gen.clouds import air_map
 from ....lut_gen.clouds import sky as cloud_sky
 from ....lut_gen.passes import panorama
 from .. import names
@@ -24,12 +25,12 @@ HEIGHT_TOLERANCE_M = 1.0
 _state = {}                 # image name -> (key, sun direction, height) it was computed for
 
 
-def ensure_image(name=names.SKY_LIGHT_IMAGE):
+def ensure_image(name=names.SKY_LIGHT_IMAGE, size=SIZE):
     image = bpy.data.images.get(name)
-    if image is None or tuple(image.size) != SIZE:
+    if image is None or tuple(image.size) != tuple(size):
         if image is not None:
             bpy.data.images.remove(image)
-        image = bpy.data.images.new(name, SIZE[0], SIZE[1], alpha=True, float_buffer=True)
+        image = bpy.data.images.new(name, size[0], size[1], alpha=True, float_buffer=True)
         image.colorspace_settings.is_data = True
     return image
 
@@ -38,15 +39,20 @@ def ensure_ground_image():
     return ensure_image(names.GROUND_LIGHT_IMAGE)
 
 
+def ensure_cloud_air_image():
+    rows, columns = air_map.atlas_shape()
+    return ensure_image(names.CLOUD_AIR_IMAGE, (columns, rows))
+
+
 def _with_clouds(luts, clouds, sun, camera_height, sky, ground, camera_xy):
     """lut_gen.clouds.sky.composite split between the panoramas: the sky image (scaled by the
     scattering scale) loses what the clouds hide of the air behind them, and the ground image
     (scaled by the sun strength alone) gains the clouds' own light."""
     layer, ranks = clouds
     view = cloud_sky.view(luts, layer, ranks, camera_height, panorama.directions(*SIZE), sun, camera_xy)
-    hidden = view.air * view.alpha[..., None] * view.sky_behind
+    hidden = view.alpha[..., None] * view.sky_behind
     behind_ground = 1.0 - np.where(camera_height >= layer.middle, view.alpha, 0.0)[..., None]
-    return sky - hidden, ground * behind_ground + view.air * view.light
+    return sky - hidden, ground * behind_ground + view.light
 
 
 def _write(image, radiance):
@@ -54,6 +60,19 @@ def _write(image, radiance):
     rgba[..., :3] = radiance
     image.pixels.foreach_set(rgba.ravel())
     image.update()
+
+
+def _update_cloud_air(info, sun, camera_height, layer, force):
+    """The camera rays' air map (lut_gen.clouds.air_map) when the sun, the camera height, the
+    layer's height or the bake changed; the coverage, the map and the camera's x, y leave it."""
+    image = ensure_cloud_air_image()
+    key = (info.key, layer.middle)
+    previous = _state.get(image.name)
+    if (not force and previous is not None and previous[0] == key
+            and np.abs(previous[1] - sun).max() < SUN_TOLERANCE and abs(previous[2] - camera_height) < HEIGHT_TOLERANCE_M):
+        return
+    _write(image, air_map.compute(info.image_luts(), layer, camera_height, sun))
+    _state[image.name] = (key, sun, camera_height)
 
 
 def update(info, sun_direction, camera_height: float, force=False, clouds=None, camera_xy=(0.0, 0.0)) -> bool:
@@ -65,6 +84,8 @@ def update(info, sun_direction, camera_height: float, force=False, clouds=None, 
     previous = _state.get(image.name)
     # The camera's x, y matter only to the clouds (where the map is read).
     cloud_key = None if clouds is None else (clouds[0], tuple(camera_xy))
+    if clouds is not None:
+        _update_cloud_air(info, sun, camera_height, clouds[0], force)
     if (not force and previous is not None and previous[0] == info.key and previous[3] == cloud_key
             and np.abs(previous[1] - sun).max() < SUN_TOLERANCE and abs(previous[2] - camera_height) < HEIGHT_TOLERANCE_M):
         return False
@@ -76,5 +97,3 @@ def update(info, sun_direction, camera_height: float, force=False, clouds=None, 
     _write(ground_image, ground)
     _state[image.name] = (info.key, sun, camera_height, cloud_key)
     return True
-
-    _state.clear()

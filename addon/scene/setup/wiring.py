@@ -42,8 +42,7 @@ def build_groups(bake_dir, engine="CYCLES"):
     lookup = nodes.build_lookup_group(images["multiple"], dims, params, nodes.lookup.filtering_for_engine(engine),
                                       mie_image=images["single_mie"])
     cloud_tree = nodes.build_cloud_group(clouds.ensure_map_image(clouds.seed_of(bpy.context.scene)),
-                                         clouds.ensure_table_image(), images["optical_depth"], images["ambient"],
-                                         params, lookup)
+                                         clouds.ensure_table_image(), skylight.ensure_cloud_air_image(), params)
     nodes.build_sky_group(images["optical_depth"], params, skylight.ensure_image(), images["ambient"],
                           skylight.ensure_ground_image(), clouds_tree=cloud_tree)
     nodes.build_cloud_shadow_group(bpy.data.images[names.CLOUD_MAP_IMAGE])
