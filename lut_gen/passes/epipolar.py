@@ -232,10 +232,12 @@ def initial_samples(samples: int, step: int, density: int) -> np.ndarray:
 
 def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Camera, smooth: bool,
           best_search: bool, first_cascade: int, luts=None, integrate: bool = False, maps=None, clouds=None):
-    """(lit length, first lit, integrated or None) at the frame's distances for rays
-    ``directions`` (n, 3): one shadow test per distance interval at its centre, as the brute
-    force march does per step. ``maps`` (lut_gen.passes.min_max) skip the taps of decided points;
-    ``clouds`` ((layer, map)) weight every test by the cloud's transmittance (lut_gen.clouds.shafts)."""
+    """(lit length, first lit, integrated or None, geometry's lit length) at the frame's
+    distances for rays ``directions`` (n, 3): one shadow test per distance interval at its
+    centre, as the brute force march does per step. ``maps`` (lut_gen.passes.min_max) skip the
+    taps of decided points; ``clouds`` ((layer, map)) weight every test by the cloud's
+    transmittance (lut_gen.clouds.shafts). The geometry's lit length is the lit length without
+    the clouds (the lit length itself when there are none): what the refinement looks at."""
     t = frame.distances()
     centres = 0.5 * (t[1:] + t[:-1])
     lengths = np.diff(t)
@@ -247,13 +249,15 @@ def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Ca
         return visibility(cascades, at, camera, smooth, best_search, first_cascade)
 
     lit = is_lit(points)
+    zero = np.zeros((len(directions), 1))
+    geometry_length = np.concatenate([zero, np.cumsum(lit * lengths, axis=-1)], axis=-1)
     if clouds is not None:
         # Each interval's cloud factor is its mean, not its centre's (intervals reach kilometres);
         # the edge refinement below tests single points.
         lit = lit * cloud_shafts.interval_transmittance(*clouds, camera.position, directions, t, frame.sun)
         is_lit = cloud_shafts.sun_visibility(is_lit, *clouds, frame.sun)
-    zero = np.zeros((len(directions), 1))
-    lit_length = np.concatenate([zero, np.cumsum(lit * lengths, axis=-1)], axis=-1)
+    lit_length = geometry_length if clouds is None else np.concatenate([zero, np.cumsum(lit * lengths, axis=-1)],
+                                                                       axis=-1)
     # F(t): the start of the first interval with light among those before t, else t itself.
     starts = np.where(lit >= shaft_boundary.LIT_FLOOR, t[None, :-1], np.inf)
     first = np.minimum.accumulate(starts, axis=-1)
@@ -275,7 +279,7 @@ def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Ca
                                          np.broadcast_to(lengths, lit.shape), sun)
         integrated = np.concatenate([np.zeros((len(directions), 1, 3)),
                                      np.cumsum(terms * lit[..., None], axis=-2)], axis=-2)
-    return lit_length, first_lit, integrated
+    return lit_length, first_lit, integrated, geometry_length
 
 
 def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera, settings: EpipolarSettings,
@@ -290,6 +294,11 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
     t = frame.distances()
     lit_length = np.zeros((n_slices, n_samples, K))
     first_lit = np.zeros((n_slices, n_samples, K))
+    # The refinement looks for the geometry's shadow edges: the clouds' factor varies smoothly
+    # along a slice (cloud features span tens to hundreds of pixels) and interpolates well, but
+    # counted in, it sent a second refinement round over most slices (the epipolar tables
+    # 1.5 -> 3.5 s a frame with clouds on the sample).
+    geometry_length = lit_length if clouds is None else np.zeros_like(lit_length)
     integrated = np.zeros((n_slices, n_samples, K, 3)) if integrate else None
     marched = np.zeros((n_slices, n_samples), dtype=bool)
     maps = min_max.build(cascades, smooth) if settings.use_min_max else None
@@ -301,9 +310,11 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
         chunk = max(1, (1 << 21) // K)
         for start in range(0, len(idx[0]), chunk):
             sel = (idx[0][start:start + chunk], idx[1][start:start + chunk])
-            L, F, S = march(frame, nodes[sel], cascades, camera, smooth, best_search, first_cascade, luts, integrate,
-                            maps, clouds)
+            L, F, S, G = march(frame, nodes[sel], cascades, camera, smooth, best_search, first_cascade, luts,
+                               integrate, maps, clouds)
             lit_length[sel], first_lit[sel] = L, F
+            if clouds is not None:
+                geometry_length[sel] = G
             if integrate:
                 integrated[sel] = S
         marched[idx] = True
@@ -315,7 +326,7 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
         # Between consecutive marched samples whose lit fractions differ by more than the
         # threshold at any distance, march every sample (a shaft edge runs between them).
         for _ in range(2):
-            need = _disagreeing_spans(lit_length, marched, t, settings.refinement_threshold)
+            need = _disagreeing_spans(geometry_length, marched, t, settings.refinement_threshold)
             if not need.any():
                 break
             run(need)
