@@ -8,10 +8,13 @@ For each cloud setting (off, then on with the given preset) the sample is render
   + tone mapping, every frame paying for its shadow maps and, for epipolar sampling, its tables
   (the per-frame cache is cleared before each render).
 The light-shaft pass is the difference of the two. Printed: the medians of --repeats renders and
-the ratios clouds on / clouds off.
+the ratios clouds on / clouds off, with Cycles' adaptive sampling (the default: a pixel stops
+when its noise is under the threshold, so a clear sky stops early and cloud edges take more of
+the samples) and with a fixed --samples per pixel (what the shaders cost).
 
     .venv/bin/python bench/bench_clouds.py [--resolution 480x270] [--samples 64] [--repeats 3]
         [--clouds fair-weather-cumulus] [--technique BRUTE_FORCE|EPIPOLAR_SAMPLING]
+        [--sampling both|adaptive|fixed]
 
 Goals: clouds add at most 25% to the 64-sample render and at most 30% to the light-shaft pass.
 """
@@ -50,6 +53,7 @@ def main(argv=None):
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--clouds", default="fair-weather-cumulus")
     parser.add_argument("--technique", default="BRUTE_FORCE", choices=("BRUTE_FORCE", "EPIPOLAR_SAMPLING"))
+    parser.add_argument("--sampling", default="both", choices=("both", "adaptive", "fixed"))
     args = parser.parse_args(argv)
     os.environ.setdefault("OLS_CACHE_DIR", str(Path(tempfile.gettempdir()) / "ols_bench_cache"))
     import render as launcher
@@ -61,19 +65,24 @@ def main(argv=None):
         scene, _ = wired_sample(pkg, Path(folder) / "bench.png", width, height)
         scene.cycles.samples = args.samples
         scene.ols.scattering_technique = args.technique
+        samplings = ("adaptive", "fixed") if args.sampling == "both" else (args.sampling,)
         results = {}
-        for clouds in (False, True):
-            scene.ols.clouds_enabled = clouds
-            if clouds:
-                scene.ols.cloud_preset = args.clouds.upper().replace("-", "_")
-            render = timed(scene, args.repeats, False, frame_update.forget)
-            whole = timed(scene, args.repeats, True, frame_update.forget)
-            results[clouds] = (render, whole, whole - render)
+        for sampling in samplings:
+            scene.cycles.use_adaptive_sampling = sampling == "adaptive"
+            for clouds in (False, True):
+                scene.ols.clouds_enabled = clouds
+                if clouds:
+                    scene.ols.cloud_preset = args.clouds.upper().replace("-", "_")
+                render = timed(scene, args.repeats, False, frame_update.forget)
+                whole = timed(scene, args.repeats, True, frame_update.forget)
+                results[sampling, clouds] = (render, whole, whole - render)
     print(f"sample {width}x{height}, {args.samples} samples, light shafts {args.technique}, "
           f"clouds {args.clouds}; median of {args.repeats}")
-    for label, index in (("render (compositor off)", 0), ("render + passes", 1), ("light-shaft pass", 2)):
-        off, on = results[False][index], results[True][index]
-        print(f"  {label:26s} clouds off {off:7.2f} s   on {on:7.2f} s   on/off {on / max(off, 1e-9):5.2f}x")
+    for sampling in samplings:
+        print(f" {sampling} sampling")
+        for label, index in (("render (compositor off)", 0), ("render + passes", 1), ("light-shaft pass", 2)):
+            off, on = results[sampling, False][index], results[sampling, True][index]
+            print(f"  {label:26s} clouds off {off:7.2f} s   on {on:7.2f} s   on/off {on / max(off, 1e-9):5.2f}x")
 
 
 if __name__ == "__main__":
