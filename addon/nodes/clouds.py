@@ -133,7 +133,10 @@ def thickness_fraction(g, map_image, uv, threshold):
     """field.thickness_fraction of the map's rank at map coordinates ``uv`` (wrapping), for
     shader and compositor trees alike."""
     rank = g.separate(g.image(map_image, uv, repeat=True))[0]
-    return g.clamp(g.div(g.sub(rank, threshold), field.SOFTNESS), 0.0, 1.0)
+    # clamp((rank - threshold) / SOFTNESS, 0, 1) as one clamped node per pixel: the light
+    # shafts run this in every march step, where the compositor pays per image-wide node (the
+    # threshold's term is a single value).
+    return g.math("MULTIPLY_ADD", rank, 1.0 / field.SOFTNESS, g.div(threshold, -field.SOFTNESS), clamp=True)
 
 
 def air_terms(g, air_image, view):

@@ -16,6 +16,7 @@ deg; the same crowding in the zenith cosine left the zenith rows 10 deg high, 2%
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
@@ -25,7 +26,7 @@ from . import field, sky
 from .layer import CloudLayer
 
 SIZE = (256, 256)            # W, H of one tile
-TILES = ("sun", "ambient", "behind")
+TILES = tuple(f.name for f in dataclasses.fields(sky.AirTerms))     # bottom to top
 
 
 def atlas_shape(size=SIZE):
@@ -44,7 +45,7 @@ def atlas_uv(directions, tile: int, size=SIZE):
     directions = np.asarray(directions, dtype=np.float64)
     width, height = size
     u = np.arctan2(directions[..., 0], directions[..., 1]) / (2 * np.pi) + 0.5
-    v = (tile * (height + 2) + 1 + v_of_cos(np.clip(directions[..., 2], -1.0, 1.0)) * height) / (len(TILES) * (height + 2))
+    v = (tile * (height + 2) + 1 + v_of_cos(directions[..., 2]) * height) / (len(TILES) * (height + 2))
     return u, v
 
 

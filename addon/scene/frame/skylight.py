@@ -67,12 +67,18 @@ def _update_cloud_air(info, sun, camera_height, layer, force):
     layer's height or the bake changed; the coverage, the map and the camera's x, y leave it."""
     image = ensure_cloud_air_image()
     key = (info.key, layer.middle)
-    previous = _state.get(image.name)
-    if (not force and previous is not None and previous[0] == key
-            and np.abs(previous[1] - sun).max() < SUN_TOLERANCE and abs(previous[2] - camera_height) < HEIGHT_TOLERANCE_M):
+    if not force and _current(image, key, sun, camera_height):
         return
     _write(image, air_map.compute(info.image_luts(), layer, camera_height, sun))
     _state[image.name] = (key, sun, camera_height)
+
+
+def _current(image, key, sun, camera_height) -> bool:
+    """The image was last computed for ``key`` and this sun and camera height (within the
+    tolerances)."""
+    previous = _state.get(image.name)
+    return (previous is not None and previous[0] == key and np.abs(previous[1] - sun).max() < SUN_TOLERANCE
+            and abs(previous[2] - camera_height) < HEIGHT_TOLERANCE_M)
 
 
 def update(info, sun_direction, camera_height: float, force=False, clouds=None, camera_xy=(0.0, 0.0)) -> bool:
@@ -81,13 +87,11 @@ def update(info, sun_direction, camera_height: float, force=False, clouds=None, 
     while the cloud layer is on."""
     image, ground_image = ensure_image(), ensure_ground_image()
     sun = np.asarray(sun_direction, dtype=np.float64)
-    previous = _state.get(image.name)
     # The camera's x, y matter only to the clouds (where the map is read).
     cloud_key = None if clouds is None else (clouds[0], tuple(camera_xy))
     if clouds is not None:
         _update_cloud_air(info, sun, camera_height, clouds[0], force)
-    if (not force and previous is not None and previous[0] == info.key and previous[3] == cloud_key
-            and np.abs(previous[1] - sun).max() < SUN_TOLERANCE and abs(previous[2] - camera_height) < HEIGHT_TOLERANCE_M):
+    if not force and _current(image, (info.key, cloud_key), sun, camera_height):
         return False
     luts = info.image_luts()
     sky, ground = panorama.panoramas(luts, sun, camera_height, SIZE)
@@ -95,5 +99,5 @@ def update(info, sun_direction, camera_height: float, force=False, clouds=None, 
         sky, ground = _with_clouds(luts, clouds, sun, camera_height, sky, ground, camera_xy)
     _write(image, sky)
     _write(ground_image, ground)
-    _state[image.name] = (info.key, sun, camera_height, cloud_key)
+    _state[image.name] = ((info.key, cloud_key), sun, camera_height)
     return True
