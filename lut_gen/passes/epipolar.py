@@ -293,14 +293,15 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
     n_slices, n_samples = nodes.shape[:2]
     K = frame.steps
     t = frame.distances()
-    lit_length = np.zeros((n_slices, n_samples, K))
-    first_lit = np.zeros((n_slices, n_samples, K))
+    # One float32 array for both (the images are float32): filled and packed in one pass.
+    lit_and_first = np.zeros((n_slices, n_samples, K, 2), dtype=np.float32)
+    lit_length, first_lit = lit_and_first[..., 0], lit_and_first[..., 1]
     # The refinement looks for the geometry's shadow edges: the clouds' factor varies smoothly
     # along a slice (cloud features span tens to hundreds of pixels) and interpolates well, but
     # counted in, it sent a second refinement round over most slices (the epipolar tables
     # 1.5 -> 3.5 s a frame with clouds on the sample).
     geometry_length = lit_length if clouds is None else np.zeros_like(lit_length)
-    integrated = np.zeros((n_slices, n_samples, K, 3)) if integrate else None
+    integrated = np.zeros((n_slices, n_samples, K, 3), dtype=np.float32) if integrate else None
     marched = np.zeros((n_slices, n_samples), dtype=bool)
     maps = min_max.build(cascades, smooth) if settings.use_min_max else None
 
@@ -332,8 +333,7 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
             if not need.any():
                 break
             run(need)
-    _fill_between_marched(lit_length, marched)
-    _fill_between_marched(first_lit, marched)
+    _fill_between_marched(lit_and_first, marched)
     if integrate:
         _fill_between_marched(integrated, marched)
     return EpipolarTables(lit_length, first_lit, integrated, marched)
@@ -355,16 +355,20 @@ def _disagreeing_midpoints(lit_length, marched, t, threshold):
 
 def _fill_between_marched(table, marched):
     """Linear interpolation along each slice's samples from its marched ones (the first and
-    the last sample of a slice are always marched), all slices at once."""
+    the last sample of a slice are always marched), in place: only the unmarched rows are
+    gathered and written."""
     n_samples = marched.shape[1]
     samples = np.broadcast_to(np.arange(n_samples), marched.shape)
     before = np.maximum.accumulate(np.where(marched, samples, 0), axis=1)
     after = np.minimum.accumulate(np.where(marched, samples, n_samples - 1)[:, ::-1], axis=1)[:, ::-1]
-    extra = (1,) * (table.ndim - 2)
-    weight = ((samples - before) / np.maximum(after - before, 1)).reshape(marched.shape + extra)
-    low = np.take_along_axis(table, before.reshape(marched.shape + extra), axis=1)
-    high = np.take_along_axis(table, after.reshape(marched.shape + extra), axis=1)
-    table[...] = np.where(marched.reshape(marched.shape + extra), table, low + (high - low) * weight)
+    slices, unmarched = np.nonzero(~marched)
+    if len(slices) == 0:
+        return
+    low, high = before[slices, unmarched], after[slices, unmarched]
+    weight = ((unmarched - low) / np.maximum(high - low, 1)).astype(table.dtype)
+    weight = weight.reshape((-1,) + (1,) * (table.ndim - 2))
+    below, above = table[slices, low], table[slices, high]
+    table[slices, unmarched] = below + (above - below) * weight
 
 
 def trilinear(frame: EpipolarFrame, table, directions, distances) -> np.ndarray:
