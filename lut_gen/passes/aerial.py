@@ -81,9 +81,11 @@ def segment_transmittance(luts: Luts, start, end) -> np.ndarray:
     # The difference of two large net densities is ill-conditioned for rays that graze the
     # horizon (the table changes fastest there): integrate along the segment instead.
     horizon = np.where(hits, _horizon_distance(luts, end, -direction), _horizon_distance(luts, start, direction))
-    weight = _smoothstep(*QUADRATURE_BAND, horizon)[..., None]
-    quadrature = quadrature_net_density(luts.params, start, end)
-    net = quadrature + (net - quadrature) * weight
+    weight = _smoothstep(*QUADRATURE_BAND, horizon)
+    near_horizon = weight < 1.0                 # quadrature only where it counts (few segments)
+    if near_horizon.any():
+        quadrature = quadrature_net_density(luts.params, start[near_horizon], end[near_horizon])
+        net[near_horizon] = quadrature + (net[near_horizon] - quadrature) * weight[near_horizon][:, None]
     optical_depth = np.maximum(net, 0.0) @ luts.params.extinction_matrix()
     return np.where(length > 1e-6, np.exp(-np.minimum(optical_depth, 80.0)), 1.0)
 

@@ -84,7 +84,8 @@ def _above_ground(luts: Luts, camera, directions, t) -> np.ndarray:
     # Zenith cosine of the ray from radius r that meets the ground (radius R) at distance t.
     meets_at_t = (radius * radius - r * r - t * t) / (2.0 * r * np.maximum(t, 1e-9))
     raised = np.maximum(cos_zenith, np.minimum(meets_at_t, 1.0))              # (..., K)
-    return aerial._tilted(up, directions, raised)
+    # Exactly the given direction where nothing is raised (build tells those rays apart).
+    return np.where((raised > cos_zenith)[..., None], aerial._tilted(up, directions, raised), directions)
 
 
 def build(luts: Luts, frame: EpipolarFrame, camera_position) -> AirTables:
@@ -93,13 +94,22 @@ def build(luts: Luts, frame: EpipolarFrame, camera_position) -> AirTables:
     camera = np.broadcast_to(np.asarray(camera_position, dtype=np.float64), nodes.shape)
     t = frame.distances()
     directions = _above_ground(luts, camera, nodes, t)                     # (S+1, N, K, 3)
-    points = camera + directions * t[:, None]
-    transmittance = aerial.segment_transmittance(luts, camera, points)
-
-    # The three tables at the same points: one set of look-up coordinates and corners.
-    radiances = aerial.section_inscattering(luts, camera, points, directions, frame.sun, ("single", "single_mie", "higher"), 1.0,
-                            transmittance, phase_free=True)
-    radiances = [radiance.astype(np.float32) for radiance in radiances]
+    # Rays no distance raises keep one direction: their start look-ups are made once, not per
+    # distance (a third of the tables' time; the sky's half of a frame has no raised ray).
+    straight = np.all(directions == nodes, axis=(-2, -1))                  # (S+1, N)
+    names = ("single", "single_mie", "higher")
+    radiances = [np.zeros(directions.shape, dtype=np.float32) for _ in names]
+    for rays, ray_directions in ((straight, nodes), (~straight, directions)):
+        if not rays.any():
+            continue
+        start, direction = camera[rays], ray_directions[rays]              # (m, 1, 3), (m, 1 or K, 3)
+        points = start + direction * t[:, None]
+        transmittance = aerial.segment_transmittance(luts, start, points)
+        # The three tables at the same points: one set of look-up coordinates and corners.
+        found = aerial.section_inscattering(luts, start, points, direction, frame.sun, names, 1.0, transmittance,
+                                            phase_free=True)
+        for radiance, part in zip(radiances, found):
+            radiance[rays] = part
     for radiance in radiances:
         radiance[:, :, 0] = 0.0         # I(0) = 0 (eq. 8's clamp and float error leave a trace)
     return AirTables(*radiances)
