@@ -33,6 +33,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "scripts"))
+sys.path.insert(0, str(ROOT / "bench"))
 
 SHAFTS_NODE = "OLS Light Shafts"        # addon.scene.names.SHAFTS_NODE (a bench may run an older checkout)
 GROUP_NODES = ("OLS Aerial Perspective", "OLS Light Shafts", "OLS Tone Mapping")
@@ -69,6 +70,7 @@ def main():
     args = parser.parse_args()
     os.environ.setdefault("OLS_CACHE_DIR", str(Path(tempfile.gettempdir()) / "ols_bench_cache"))
     import render as launcher
+    import saved_render
     package = launcher.import_extension()
     import bpy
 
@@ -169,34 +171,11 @@ def main():
 
     # -- compositor only --------------------------------------------------------------------
     print("compositor only ...", flush=True)
-    scene.render.use_compositing = False
-    bpy.ops.render.render(write_still=False)
+    saved = saved_render.save(scene)
     errors.check("reference render")
-    exr = Path(tempfile.mkdtemp(prefix="ols_bench_")) / "frame.exr"
-    image_settings = scene.render.image_settings
-    image_settings.media_type = "MULTI_LAYER_IMAGE"
-    image_settings.color_depth = "32"
-    bpy.data.images["Render Result"].save_render(str(exr), scene=scene)
-    # Back to PNG: with OpenEXR MultiLayer output every timed render would also write the
-    # atmosphere layers file (and evaluate the per-pixel in-scattering it holds).
-    image_settings.media_type = "IMAGE"
-    image_settings.file_format = "PNG"
-    image_settings.color_depth = "8"
-    saved = tree.nodes.new("CompositorNodeImage")
-    saved.name = "Bench Saved Render"
-    saved.image = bpy.data.images.load(str(exr))
-    scene.render.use_compositing = True
 
     def use_saved_render():
-        """Move every link out of a Render Layers node onto the saved image; mute those nodes."""
-        for node in tree.nodes:
-            if node.bl_idname != "CompositorNodeRLayers":
-                continue
-            for output in node.outputs:
-                for link in list(output.links):
-                    name = "Combined" if output.name == "Image" else output.name
-                    tree.links.new(saved.outputs[name], link.to_socket)   # replaces the link
-            node.mute = True
+        saved_render.use(scene, saved)
 
     def compositor_only(label, runs=None, **config):
         configure(**config)

@@ -2,9 +2,11 @@
 sizes (issue 25): what the pass adds to a render, shadow maps and tables included.
 
 For each scene (bench/shaft_scenes.py: the sample, a colonnade, a forest of 10 000 instanced
-trees) and size, three renders (1 Cycles sample, best of --repeat, the add-on's per-frame
-cache cleared before each so every render pays for the shadow maps and tables as a new
-animation frame would):
+trees) and size, the frame is rendered once (1 Cycles sample) and the compositor then fed from
+it (bench/saved_render.py: the renders below skip Cycles and its run-to-run noise, which is
+the same with and without the pass). Three configurations, best of --repeat, the add-on's
+per-frame cache cleared before each so every render pays for the shadow maps and tables as a
+new animation frame would:
 - the scattering pass off (its aerial perspective and light-shaft nodes muted; tone mapping runs);
 - light shafts on, brute force;
 - light shafts on, epipolar sampling.
@@ -66,6 +68,7 @@ def main():
     import render as launcher
     pkg = launcher.import_extension()
     import bpy
+    import saved_render
     import shaft_scenes
 
     def module(name):
@@ -126,18 +129,21 @@ def main():
             width, height = (int(v) for v in size.split("x"))
             print(f"{name} {size}: setting up", flush=True)
             scene = shaft_scenes.wired(pkg, name, width, height, output)
-            configure(scene, False)
-            bpy.ops.render.render(write_still=False)        # warm-up: kernels, BVH, the layout's first compile
-            off = best_render(scene)
-            result = {"off": off}
-            for technique in TECHNIQUES:
-                configure(scene, True, technique)
+            saved = saved_render.save(scene)
+            result = {}
+            for technique in (None,) + TECHNIQUES:
+                configure(scene, technique is not None, technique or "BRUTE_FORCE")
+                saved_render.use(scene, saved)              # a layout rebuild relinks Render Layers
                 bpy.ops.render.render(write_still=False)    # the layout's first render compiles it
-                result[technique] = best_render(scene) - off
-                result[technique + " numpy"] = numpy_stages(scene)
+                result[technique] = best_render(scene)
+                if technique is not None:
+                    result[technique + " numpy"] = numpy_stages(scene)
+            off = result.pop(None)
+            for technique in TECHNIQUES:
+                result[technique] -= off
             rows.append((name, size, result))
             epipolar, brute = result["EPIPOLAR_SAMPLING"], result["BRUTE_FORCE"]
-            print(f"  render without the pass {off:.2f} s; pass: brute force {brute:.2f} s, "
+            print(f"  compositor without the pass {off:.2f} s; pass: brute force {brute:.2f} s, "
                   f"epipolar {epipolar:.2f} s = {epipolar / max(brute, 1e-9):.2f}x", flush=True)
 
     print("\nThe whole pass (aerial perspective + light shafts: render with it minus without), best of", args.repeat)

@@ -242,7 +242,10 @@ def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Ca
     t = frame.distances()
     centres = 0.5 * (t[1:] + t[:-1])
     lengths = np.diff(t)
-    points = camera.position + directions[:, None, :] * centres[None, :, None]         # (n, K-1, 3)
+    # float32: the shadow test's points are the march's bulk (texel coordinates to 1e-4 of a
+    # texel, sun depths to a millimetre at 10 km: finer than the depth bias).
+    points = (camera.position.astype(np.float32) + directions[:, None, :].astype(np.float32)
+              * centres[None, :, None].astype(np.float32))                                 # (n, K-1, 3)
 
     def is_lit(at):
         if maps is not None:

@@ -280,8 +280,12 @@ def locate(cascades: ShadowCascades, points, camera: Camera, best_search: bool =
     march", cascades below ``first_cascade`` are skipped: their points are tested in that
     (larger, nested) cascade instead. Coordinates are clamped to [-1, res + 1], which leaves
     every tap's clamped texel as it was."""
-    points = np.asarray(points, dtype=np.float64)
-    light = points @ cascades.frame.T
+    points = np.asarray(points)
+    # float32 points stay float32 (the epipolar march's many points; the compositor tests in
+    # float32 too), anything else is taken as float64.
+    dtype = np.float32 if points.dtype == np.float32 else np.float64
+    points = points.astype(dtype, copy=False)
+    light = points @ cascades.frame.T.astype(dtype)
     view_depth = None if best_search else (points - camera.position) @ camera.forward
     index = select_cascade(cascades, light[..., :2], view_depth, best_search)
     index = np.maximum(index, min(first_cascade, cascades.count - 1))
@@ -290,11 +294,12 @@ def locate(cascades: ShadowCascades, points, camera: Camera, best_search: bool =
     # point costs a fraction of indexing (count, 2) ones (this is the epipolar march's hot loop).
     texel = cascades.texel_sizes()
     scale = 1.0 / texel
-    offset = -(cascades.centers - cascades.halves) * scale
+    offset = (-(cascades.centers - cascades.halves) * scale).astype(dtype)
+    scale = scale.astype(dtype)
     res = cascades.resolution
     x = np.clip(light[..., 0] * np.take(scale[:, 0], safe) + np.take(offset[:, 0], safe), -1.0, res + 1.0)
     y = np.clip(light[..., 1] * np.take(scale[:, 1], safe) + np.take(offset[:, 1], safe), -1.0, res + 1.0)
-    return index < cascades.count, safe, y, x, light[..., 2], np.take(cascades.biases(), safe)
+    return index < cascades.count, safe, y, x, light[..., 2], np.take(cascades.biases().astype(dtype), safe)
 
 
 def tap_texels(x, y, smooth: bool):
