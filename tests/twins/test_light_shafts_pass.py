@@ -334,3 +334,29 @@ def test_new_epipolar_table_sizes_resize_images_and_rebuild_no_group(addon_packa
         seen = render_rgb(scene, tmp_path / f"s{slices}.exr", composite=True)[::-1]
         assert np.median(relative_error(seen, twin())) <= 1e-3, (slices, samples, steps)
     assert builds == []
+
+
+def test_in_scattering_tables_are_reused_while_the_camera_and_sun_stay(addon_package, tmp_path, monkeypatch):
+    """The epipolar in-scattering tables depend on the camera's position, the sun and the grid,
+    not on the geometry: moving an occluder rebuilds the lit-length tables only, and the frame
+    equals one built from scratch; moving the camera rebuilds them."""
+    scene = low_sun_scene(addon_package, tmp_path, monkeypatch, steps=4)
+    scene.ols.scattering_technique = "EPIPOLAR_SAMPLING"
+    epipolar_air = extension_module("lut_gen.passes.epipolar_air")
+    frame_update = extension_module("addon.scene.frame.frame_update")
+    calls = []
+    original = epipolar_air.build
+    monkeypatch.setattr(epipolar_air, "build", lambda *a, **k: calls.append(1) or original(*a, **k))
+    render_rgb(scene, tmp_path / "first.exr", composite=True)
+    assert len(calls) == 1
+    terrain = next(o for o in scene.objects if o.type == "MESH")
+    terrain.location.z += 300.0
+    reused = render_rgb(scene, tmp_path / "reused.exr", composite=True)
+    assert len(calls) == 1
+    frame_update.forget()
+    fresh = render_rgb(scene, tmp_path / "fresh.exr", composite=True)
+    assert len(calls) == 2
+    assert np.abs(reused - fresh).max() <= 1e-6 * max(np.abs(fresh).max(), 1e-6)
+    scene.camera.location.z += 50.0
+    render_rgb(scene, tmp_path / "camera.exr", composite=True)
+    assert len(calls) == 3

@@ -138,6 +138,7 @@ def rendering() -> bool:
 
 def forget():
     _state.update(key=None, geometry_changed=True)
+    epipolar_tables.forget()
 
 
 def pass_settings(scene, sun_strength: float):
