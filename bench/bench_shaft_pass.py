@@ -11,7 +11,8 @@ new animation frame would:
 - light shafts on, brute force;
 - light shafts on, epipolar sampling.
 The pass is a render minus the render without it; the ratio is epipolar / brute force
-(goals: <= 0.25x at 960 x 540, <= 0.15x at 1920 x 1080).
+(goals: <= 0.25x at 960 x 540, <= 0.15x at 1920 x 1080), and the PSNR between the two
+techniques' linear output (bar: 40 dB).
 
 Per stage, the per-frame numpy work of each technique (best of --repeat calls of the frame
 update outside a render): shadow maps (gathering the triangles and rasterising), the epipolar
@@ -29,6 +30,8 @@ import time
 from collections import defaultdict
 from importlib import import_module
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "scripts"))
@@ -58,6 +61,14 @@ class StageTimer:
         self.seconds.clear()
 
 
+def psnr(image, reference):
+    """PSNR (dB) in display values through one fixed exposure curve, the reference's (as
+    tests/twins/test_light_shafts_pass.py compares the techniques; the bar is 40 dB)."""
+    exposure = 0.18 / np.exp(np.mean(np.log(np.maximum(reference @ [0.2126, 0.7152, 0.0722], 0) + 1e-6)))
+    shown = [np.clip(x * exposure / (1 + x * exposure), 0, 1) for x in (image, reference)]
+    return float(10 * np.log10(1 / max(np.mean((shown[0] - shown[1]) ** 2), 1e-20)))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--scenes", default="sample,colonnade,forest")
@@ -68,6 +79,7 @@ def main():
     import render as launcher
     pkg = launcher.import_extension()
     import bpy
+    import render_util
     import saved_render
     import shaft_scenes
 
@@ -110,6 +122,16 @@ def main():
             best = min(best, time.perf_counter() - start)
         return best
 
+    def linear_frame(scene, path):
+        """The pass's linear output (tone mapping muted), as the accuracy tests compare it."""
+        tone = scene.compositing_node_group.nodes.get(names.TONE_NODE)
+        tone.mute = True
+        try:
+            return render_util.render_rgb(scene, path, composite=True)
+        finally:
+            tone.mute = False
+            scene.render.use_compositing = True
+
     def numpy_stages(scene):
         """{stage: seconds} of the best frame update (by its total)."""
         depsgraph = bpy.context.evaluated_depsgraph_get()
@@ -138,20 +160,24 @@ def main():
                 result[technique] = best_render(scene)
                 if technique is not None:
                     result[technique + " numpy"] = numpy_stages(scene)
+                    result[technique + " image"] = linear_frame(scene, output.parent / f"{name}_{size}_{technique}.exr")
             off = result.pop(None)
             for technique in TECHNIQUES:
                 result[technique] -= off
+            result["psnr"] = psnr(result.pop("EPIPOLAR_SAMPLING image"), result.pop("BRUTE_FORCE image"))
             rows.append((name, size, result))
             epipolar, brute = result["EPIPOLAR_SAMPLING"], result["BRUTE_FORCE"]
             print(f"  compositor without the pass {off:.2f} s; pass: brute force {brute:.2f} s, "
-                  f"epipolar {epipolar:.2f} s = {epipolar / max(brute, 1e-9):.2f}x", flush=True)
+                  f"epipolar {epipolar:.2f} s = {epipolar / max(brute, 1e-9):.2f}x; "
+                  f"epipolar vs brute force {result['psnr']:.1f} dB", flush=True)
 
     print("\nThe whole pass (aerial perspective + light shafts: render with it minus without), best of", args.repeat)
-    print(f"{'scene':10} {'size':>10} {'brute s':>8} {'epipolar s':>10} {'ratio':>6} {'goal':>5}")
+    print(f"{'scene':10} {'size':>10} {'brute s':>8} {'epipolar s':>10} {'ratio':>6} {'goal':>5} {'PSNR dB':>8}")
     for name, size, result in rows:
         goal = {"960x540": 0.25, "1920x1080": 0.15}.get(size, float("nan"))
         brute, epipolar = result["BRUTE_FORCE"], result["EPIPOLAR_SAMPLING"]
-        print(f"{name:10} {size:>10} {brute:8.2f} {epipolar:10.2f} {epipolar / max(brute, 1e-9):6.2f} {goal:5.2f}")
+        print(f"{name:10} {size:>10} {brute:8.2f} {epipolar:10.2f} {epipolar / max(brute, 1e-9):6.2f} {goal:5.2f}"
+              f" {result['psnr']:8.1f}")
     stages = ("gather triangles", "rasterise", "shadow images", "lit-length tables", "in-scattering tables",
               "pack tables")
     print("\nPer-frame numpy work, epipolar sampling (s; goal: frame update <= 0.5 s at 1024 texels)")
