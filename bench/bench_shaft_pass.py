@@ -79,9 +79,9 @@ def main():
     import render as launcher
     pkg = launcher.import_extension()
     import bpy
-    import render_util
     import saved_render
-    import shaft_scenes
+    import shaft_scenes          # puts tests/ on the path: render_util
+    import render_util
 
     def module(name):
         return import_module(f"{pkg.__name__}.{name}")
