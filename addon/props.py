@@ -271,6 +271,14 @@ class OLSSettings(bpy.types.PropertyGroup):
         default=False,
         update=_sync_compositor,
     )
+    jitter_steps: BoolProperty(
+        name="Jitter Steps",
+        description=_d("jitter_steps",
+                       "Brute force: offset each pixel's march steps by a fixed per-pixel noise, so the banding "
+                       "of few steps becomes fine noise"),
+        default=False,
+        update=_sync_compositor,
+    )
     smooth_shadows: BoolProperty(
         name="Smooth Shadows",
         description=_d("smooth_shadows", "Soften shadow edges by bilinear filtering of 4 shadow-map samples"),

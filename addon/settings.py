@@ -22,6 +22,7 @@ PROPERTIES_BY_SET = {
         "scattering_technique",
         "shadow_map_resolution",
         "num_integration_steps",
+        "jitter_steps",
         "epipolar_slices",
         "samples_per_slice",
         "initial_sample_step",

@@ -23,6 +23,7 @@ ENABLED_BY = {
     "ozone_column": lambda settings: settings.atmosphere_preset == "CLEAR_SKY",
     "day_start_frame": lambda settings: settings.animate_sun,
     "day_end_frame": lambda settings: settings.animate_sun,
+    "jitter_steps": lambda settings: settings.scattering_technique == "BRUTE_FORCE",
     **{name: (lambda settings: settings.scattering_technique == "EPIPOLAR_SAMPLING")
        for name in ("epipolar_slices", "samples_per_slice", "initial_sample_step", "epipole_sampling_density",
                     "refinement_threshold", "show_sampling", "use_min_max_optimization")},

@@ -18,9 +18,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ...lut_gen.passes import shadow_map, shaft_boundary
+from ...lut_gen.passes import jitter as jitter_offsets, shadow_map, shaft_boundary
 from ...lut_gen.passes.shadow_map import MIN_FORWARD_COSINE
-from . import cloud_shafts, epipolar
+from . import cloud_shafts, epipolar, jitter
 from .aerial import PASS_INPUTS
 from .builder import group_io, new_group
 from .inscattering import section_node
@@ -217,6 +217,9 @@ MAIN_INPUTS = PASS_INPUTS + [
     ("Show Cascades", "NodeSocketFloat", 0.0),
 ]
 
+# Brute force only: 1 offsets each pixel's steps by its noise (lut_gen.passes.jitter).
+MARCH_INPUTS = [("Jitter Steps", "NodeSocketFloat", 0.0)]
+
 
 def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params, layout: ShaftLayout,
                              epipolar_images=(None, None, None, {}), cloud_map=None):
@@ -228,7 +231,7 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     tree = new_group(names.LIGHT_SHAFTS_GROUP, "CompositorNodeTree")
     tree[names.LAYOUT_KEY] = layout.as_key()
     tree[names.READS_SHADOW_MAPS_KEY] = layout.reads_shadow_maps
-    inputs = MAIN_INPUTS + test_inputs(layout) + (epipolar.INPUTS if layout.epipolar else [])
+    inputs = MAIN_INPUTS + test_inputs(layout) + (epipolar.INPUTS if layout.epipolar else MARCH_INPUTS)
     g, gin, gout = group_io(tree, inputs, [("Image", "NodeSocketColor", None)])
     camera, forward = gin.outputs["Camera Position"], gin.outputs["Camera Forward"]
     sun = g.vmath("NORMALIZE", gin.outputs["Sun Direction"])
@@ -273,7 +276,9 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
         chunk_trees = {name: build_march_chunk_group(name, count, layout, shadow_test_tree, integration)
                        for name, count in dict(march_chunks(layout.steps)).items()}
         edge_tree = build_shaft_edge_group(layout, shadow_test_tree)
-        lit_length, first_lit, integrated = _march(g, gin, direction, length, sun, layout, chunk_trees, edge_tree)
+        offset = jitter.step_offset(g, coordinates.outputs["Pixel"], gin.outputs["Jitter Steps"])
+        lit_length, first_lit, integrated = _march(g, gin, direction, length, sun, layout, chunk_trees, edge_tree,
+                                                   offset)
         light, unshadowed = _brute_force_difference(g, camera, end, direction, sun, layout, lit_length, first_lit,
                                                     integrated)
         base = gin.outputs["Image"]
@@ -361,14 +366,16 @@ def build_march_chunk_group(name: str, count: int, layout: ShaftLayout, shadow_t
     tree = new_group(name, "CompositorNodeTree")
     inputs = (test_inputs(layout) + MARCH_STATE
               + [("Direction", "NodeSocketVector", (0.0, 1.0, 0.0)), ("Sun", "NodeSocketVector", (0.0, 0.0, 1.0)),
-                 ("Step", "NodeSocketFloat", 1.0), ("First Step", "NodeSocketFloat", 0.0)])
+                 ("Step", "NodeSocketFloat", 1.0), ("First Step", "NodeSocketFloat", 0.0),
+                 ("Offset", "NodeSocketFloat", jitter_offsets.CENTRE)])
     g, gin, gout = group_io(tree, inputs, MARCH_STATE)
     camera, direction, step = gin.outputs["Camera Position"], gin.outputs["Direction"], gin.outputs["Step"]
     state = {name: gin.outputs[name] for name, *_ in MARCH_STATE}
+    # The samples sit at (first + j + offset) steps: the step centres at offset 0.5, the
+    # pixel's jitter otherwise (lut_gen.passes.jitter).
+    shifted = g.add(gin.outputs["First Step"], gin.outputs["Offset"])
     for j in range(count):
-        # (first + j) is an exact integer in float32: the same t and first-lit terms as a
-        # single unrolled march.
-        t = g.mul(step, g.add(gin.outputs["First Step"], j + 0.5))
+        t = g.mul(step, g.add(shifted, float(j)))
         point = g.vmath("MULTIPLY_ADD", direction, g.combine(t, t, t), camera)
         test = g.node("CompositorNodeGroup")
         test.node_tree = shadow_test_tree
@@ -439,9 +446,10 @@ def build_shaft_edge_group(layout: ShaftLayout, shadow_test_tree):
     return tree
 
 
-def _march(g, gin, direction, length, sun, layout: ShaftLayout, chunk_trees, edge_tree):
+def _march(g, gin, direction, length, sun, layout: ShaftLayout, chunk_trees, edge_tree, offset):
     """Brute force: (lit length, first lit, integrated or None) from ``layout.steps`` shadow
-    tests at the step centres of the pixel's ray, chained through the chunk groups."""
+    tests along the pixel's ray, at ``offset`` (a socket: 0.5 the step centres, or the
+    pixel's jitter) within each step, chained through the chunk groups."""
     step = g.div(length, float(layout.steps))
     state = {name: default for name, _, default in MARCH_STATE}
     first = 0
@@ -451,7 +459,7 @@ def _march(g, gin, direction, length, sun, layout: ShaftLayout, chunk_trees, edg
         for socket, *_ in test_inputs(layout):
             g.links.new(gin.outputs[socket], node.inputs[socket])
         for socket, value in (("Direction", direction), ("Sun", sun), ("Step", step), ("First Step", float(first)),
-                              *state.items()):
+                              ("Offset", offset), *state.items()):
             g.feed(node.inputs[socket], value)
         state = {name: node.outputs[name] for name, *_ in MARCH_STATE}
         first += count
@@ -461,7 +469,7 @@ def _march(g, gin, direction, length, sun, layout: ShaftLayout, chunk_trees, edg
     crossed = g.math("LESS_THAN", state["Transition"], 0.5 * NEVER)
     k = g.math("MINIMUM", state["Transition"], max(layout.steps - 1, 1))     # finite where none
     edge = g.group(edge_tree, **{name: gin.outputs[name] for name, *_ in test_inputs(layout)},
-                   Direction=direction, Near=g.mul(g.sub(k, 0.5), step), Far=g.mul(g.add(k, 0.5), step),
+                   Direction=direction, Near=g.mul(g.add(k, g.sub(offset, 1.0)), step), Far=g.mul(g.add(k, offset), step),
                    **{"Lit Near": state["Lit Before"], "Lit Far": state["Lit After"]})["Edge"]
     shift = g.mul(g.sub(state["Lit Before"], state["Lit After"]), g.sub(edge, g.mul(k, step)))
     lit_length = g.mul_add(shift, crossed, lit_length)

@@ -127,11 +127,12 @@ def aerial_perspective(luts: Luts, camera, points, surface_radiance, sun_directi
 
 
 def light_shafts(luts: Luts, camera, end, sun_direction, is_lit, steps: int = 32,
-                 single_mode: str = "LUT", multiple_mode: str = "UNOCCLUDED") -> np.ndarray:
+                 single_mode: str = "LUT", multiple_mode: str = "UNOCCLUDED", offsets=None) -> np.ndarray:
     """(..., 3) in-scattering along camera -> end with sun shadows, per unit sun.
 
     ``is_lit(points) -> array`` tells how much of the sun reaches world points (the shadow
-    map: 0 or 1, or fractions with PCF). The march takes ``steps`` samples at step centres and
+    map: 0 or 1, or fractions with PCF). The march takes ``steps`` samples, at the step centres
+    or at ``offsets`` (..., in [0, 1): lut_gen.passes.jitter) within each step, and
     finds the lit length and the distance to the first lit sample (the sample's D_lit,
     D_start), its first shadow edge refined between samples (lut_gen.passes.shaft_boundary),
     then applies the modes.
@@ -145,7 +146,8 @@ def light_shafts(luts: Luts, camera, end, sun_direction, is_lit, steps: int = 32
     length = np.linalg.norm(ray, axis=-1)
     direction = ray / np.maximum(length, 1e-9)[..., None]
     step = length / steps
-    t = (np.arange(steps) + 0.5)[(None,) * length.ndim]                        # (..., steps)
+    offsets = np.broadcast_to(0.5 if offsets is None else np.asarray(offsets, dtype=np.float64), length.shape)
+    t = np.arange(steps) + offsets[..., None]                                  # (..., steps)
     samples = camera[..., None, :] + direction[..., None, :] * (t * step[..., None])[..., None]
     lit = np.asarray(is_lit(samples), dtype=np.float64)                        # (..., steps)
     lit_length = lit.sum(axis=-1) * step
@@ -154,7 +156,8 @@ def light_shafts(luts: Luts, camera, end, sun_direction, is_lit, steps: int = 32
     # The first shadow edge, placed between its two samples (lut_gen.passes.shaft_boundary).
     k, before, after = shaft_boundary.first_transition(lit)
     crossed = k < steps
-    edge = shaft_boundary.refine(is_lit, camera, direction, (k - 0.5) * step, (k + 0.5) * step, before, after)
+    edge = shaft_boundary.refine(is_lit, camera, direction, (k - 1 + offsets) * step, (k + offsets) * step, before,
+                                 after)
     lit_length = lit_length + np.where(crossed, (before - after) * (edge - k * step), 0.0)
     first_lit = np.where(crossed & (lit[..., 0] < shaft_boundary.HALF), edge, first_lit)
     integrated = None

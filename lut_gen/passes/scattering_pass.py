@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import aerial, epipolar, epipolar_air
+from . import aerial, epipolar, epipolar_air, jitter
 from ..clouds import shafts as cloud_shafts
 from ..clouds import veil as cloud_veil
 from ..clouds.layer import RANGES as CLOUD_RANGES
@@ -49,6 +49,7 @@ class PassSettings:
     single_scattering_mode: str = "LUT"
     multiple_scattering_mode: str = "UNOCCLUDED"
     smooth_shadows: bool = True
+    jitter_steps: bool = False
     best_cascade_search: bool = True
     first_cascade_to_ray_march: int = 0
     show_cascades: bool = False
@@ -184,8 +185,9 @@ def light_shafts(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades,
                           settings.best_cascade_search, settings.first_cascade_to_ray_march)
     if clouds is not None:
         is_lit = cloud_shafts.sun_visibility(is_lit, *clouds, sun)
+    offsets = jitter.step_offsets(*np.shape(end)[:2], settings.jitter_steps)      # end: (H, W, 3)
     shadowed = aerial.light_shafts(luts, camera.position, end, sun, is_lit, settings.num_integration_steps,
-                                   settings.single_scattering_mode, settings.multiple_scattering_mode)
+                                   settings.single_scattering_mode, settings.multiple_scattering_mode, offsets)
     return shadowed - unshadowed
 
 

@@ -96,7 +96,7 @@ def test_every_control_is_a_property(addon_package):
         "day_start_frame", "day_end_frame",
         "middle_gray", "white_point", "luminance_saturation", "auto_exposure", "tone_mapping_operator",
         "light_adaptation", "tone_map_exr", "enable_light_scattering", "lighting_only", "enable_light_shafts",
-        "shadow_map_resolution", "num_integration_steps", "single_scattering_mode", "multiple_scattering_mode",
+        "shadow_map_resolution", "num_integration_steps", "jitter_steps", "single_scattering_mode", "multiple_scattering_mode",
         "num_cascades", "show_cascades", "smooth_shadows", "best_cascade_search", "cascade_partitioning_factor",
         "first_cascade_to_ray_march", "scattering_technique", "epipolar_slices", "samples_per_slice",
         "initial_sample_step", "epipole_sampling_density", "refinement_threshold", "show_sampling",
@@ -283,9 +283,11 @@ def test_panel(scene, addon_package):
         assert [entry[1] for entry in drawn[1:]] == names
         for _, name, active, enabled in drawn[1:]:
             assert active == (name not in settings.WITHOUT_EFFECT), name
-            if name in ("rayleigh_color", "mie_color", "day_start_frame", "day_end_frame") or (
+            if name in ("rayleigh_color", "mie_color", "day_start_frame", "day_end_frame", "jitter_steps") or (
                     name.startswith("cloud_")):
-                assert enabled is False  # custom coefficients, Animate Sun and clouds are off by default
+                # custom coefficients, Animate Sun and clouds are off by default; jitter is
+                # brute force's, and the default technique is epipolar sampling
+                assert enabled is False
             else:
                 assert enabled is True, name
         notes = [e for e in log if e[0] == "label" and "tooltips say why" in e[1]]

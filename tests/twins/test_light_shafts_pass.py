@@ -360,3 +360,26 @@ def test_in_scattering_tables_are_reused_while_the_camera_and_sun_stay(addon_pac
     scene.camera.location.z += 50.0
     render_rgb(scene, tmp_path / "camera.exr", composite=True)
     assert len(calls) == 3
+
+
+def test_jitter_steps_offsets_each_pixel_as_the_twin_does(addon_package, tmp_path, monkeypatch):
+    """Brute force with Jitter Steps: the compositor's per-pixel offsets (interleaved gradient
+    noise of the pixel's coordinates) match lut_gen.passes.jitter, and they change the picture
+    (the control is not a no-op)."""
+    scene = low_sun_scene(addon_package, tmp_path, monkeypatch, steps=8)
+    scene.ols.scattering_technique = "BRUTE_FORCE"
+    passes = render_passes(addon_package, scene, tmp_path)
+    twin = Twin(addon_package, scene, passes)
+    scene.ols.jitter_steps = True
+    jittered = render_rgb(scene, tmp_path / "jittered.exr", composite=True)[::-1]
+    expected = twin()
+    assert np.isfinite(jittered).all()
+    error = relative_error(jittered, expected)
+    print("jitter: median", np.median(error), "p99", np.percentile(error, 99))
+    # float32 noise in the compositor against float64: offsets differ by up to ~1e-4 of a step.
+    assert np.median(error) <= 1e-4 and np.percentile(error, 99) <= 1e-2
+    plain = twin(jitter_steps=False)
+    assert relative_error(plain, expected).max() > 1e-3        # the offsets moved the samples
+    scene.ols.jitter_steps = False
+    unjittered = render_rgb(scene, tmp_path / "plain.exr", composite=True)[::-1]
+    assert np.median(relative_error(unjittered, plain)) <= 1e-4

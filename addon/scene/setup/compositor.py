@@ -404,6 +404,8 @@ def sync_settings(scene):
                              "Show Cascades": float(settings.show_cascades)})
         if "Show Sampling" in shafts.inputs:
             _set_inputs(shafts, {"Show Sampling": float(settings.show_sampling)})
+        if "Jitter Steps" in shafts.inputs:
+            _set_inputs(shafts, {"Jitter Steps": float(settings.jitter_steps)})
 
 
 def _set_inputs(node, values: dict):
