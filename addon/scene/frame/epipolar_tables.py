@@ -3,6 +3,7 @@ Shafts" group reads, and the choice of technique for the scene's settings."""
 from __future__ import annotations
 
 import dataclasses
+import weakref
 
 import bpy
 import numpy as np
@@ -99,11 +100,14 @@ _air_cache = {"luts": None, "key": None, "tables": None}
 
 
 def _air_tables(luts_object, air, camera_position):
-    # The bake is compared by identity and held, so a new bake never meets a reused id.
+    # The bake is compared by identity through a weak reference: a new bake never matches a
+    # freed one's reused id, and a replaced bake's tables are not kept alive by this cache.
     key = (np.asarray(camera_position, dtype=np.float64).tobytes(),
            tuple(np.asarray(v).tobytes() if isinstance(v, np.ndarray) else v for v in dataclasses.astuple(air)))
-    if _air_cache["luts"] is not luts_object or _air_cache["key"] != key:
-        _air_cache.update(luts=luts_object, key=key, tables=epipolar_air.build(luts_object, air, camera_position))
+    cached = _air_cache["luts"]
+    if cached is None or cached() is not luts_object or _air_cache["key"] != key:
+        _air_cache.update(luts=weakref.ref(luts_object), key=key,
+                          tables=epipolar_air.build(luts_object, air, camera_position))
     return _air_cache["tables"]
 
 
