@@ -20,7 +20,8 @@ sys.path.insert(0, str(ROOT / "tests"))
 import lut_gen                                              # noqa: E402
 from lut_gen.store.png import write_png                    # noqa: E402
 from lut_gen.verify import banding                          # noqa: E402
-from occluders import CAMERA, Scene, display, pillars, sun_at  # noqa: E402
+from lut_gen.verify.display import display, exposure_of  # noqa: E402
+from occluders import CAMERA, Scene, pillars, sun_at    # noqa: E402
 
 
 def main():
@@ -50,12 +51,10 @@ def main():
     if args.figure:
         # The error of the 16-step march without and with jitter (grey 0, white +50% of the
         # shafts' size, black -50%), beside the 256-step frame itself.
-        luminance = reference @ banding.LUMINANCE
-        exposure = 0.18 / np.exp(np.mean(np.log(np.maximum(luminance, 0) + 1e-6)))
         signal = np.abs((unshadowed - reference) @ banding.LUMINANCE).max()
         panels = [np.repeat(np.clip(0.5 + ((images[16, j] - reference) @ banding.LUMINANCE) / signal, 0, 1)[..., None],
                             3, axis=-1) for j in (False, True)]
-        panels.append(display(reference, exposure))
+        panels.append(display(reference, exposure_of(reference)))
         strip = np.concatenate([p[::-1] for p in panels], axis=1)      # rows top to bottom
         write_png(args.figure, np.clip(np.round(strip * 255), 0, 255).astype(np.uint8))
         print(f"wrote {args.figure}: the error of 16 steps, of 16 jittered steps; the 256-step frame")

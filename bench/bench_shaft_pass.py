@@ -31,8 +31,6 @@ from collections import defaultdict
 from importlib import import_module
 from pathlib import Path
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "scripts"))
 sys.path.insert(0, str(ROOT / "bench"))
@@ -61,14 +59,6 @@ class StageTimer:
         self.seconds.clear()
 
 
-def psnr(image, reference):
-    """PSNR (dB) in display values through one fixed exposure curve, the reference's (as
-    tests/twins/test_light_shafts_pass.py compares the techniques; the bar is 40 dB)."""
-    exposure = 0.18 / np.exp(np.mean(np.log(np.maximum(reference @ [0.2126, 0.7152, 0.0722], 0) + 1e-6)))
-    shown = [np.clip(x * exposure / (1 + x * exposure), 0, 1) for x in (image, reference)]
-    return float(10 * np.log10(1 / max(np.mean((shown[0] - shown[1]) ** 2), 1e-20)))
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--scenes", default="sample,colonnade,forest")
@@ -92,6 +82,7 @@ def main():
     epipolar_tables = module("addon.scene.frame.epipolar_tables")
     shadow_maps = module("addon.scene.frame.shadow_maps")
     names = module("addon.scene.names")
+    display = module("lut_gen.verify.display")
     timer = StageTimer()
     timer.wrap(shadow_maps, "scene_triangles", "gather triangles")
     timer.wrap(module("lut_gen.passes.shadow_map"), "render_cascades", "rasterise")
@@ -164,7 +155,7 @@ def main():
             off = result.pop(None)
             for technique in TECHNIQUES:
                 result[technique] -= off
-            result["psnr"] = psnr(result.pop("EPIPOLAR_SAMPLING image"), result.pop("BRUTE_FORCE image"))
+            result["psnr"] = display.display_psnr(result.pop("EPIPOLAR_SAMPLING image"), result.pop("BRUTE_FORCE image"))
             rows.append((name, size, result))
             epipolar, brute = result["EPIPOLAR_SAMPLING"], result["BRUTE_FORCE"]
             print(f"  compositor without the pass {off:.2f} s; pass: brute force {brute:.2f} s, "

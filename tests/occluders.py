@@ -5,6 +5,7 @@ images are compared in display values through one fixed exposure curve."""
 import numpy as np
 
 from lut_gen.passes import scattering_pass, shadow_map
+from lut_gen.verify.display import display_psnr
 from lut_gen.passes.shadow_map import Camera
 
 SUN_STRENGTH, SCALE = 10.0, 0.5
@@ -80,22 +81,11 @@ class Scene:
                                                self.cascades, chosen)
 
 
-def display(radiance, exposure):
-    x = radiance * exposure
-    return np.clip(x / (1.0 + x), 0.0, 1.0)
-
-
-def psnr(a, b):
-    return 10.0 * np.log10(1.0 / max(np.mean((a - b) ** 2), 1e-20))
-
-
 def compare(scene, luts, **settings):
     brute = scene.shafts(luts, scattering_technique="BRUTE_FORCE", **settings)
     epi = scene.shafts(luts, scattering_technique="EPIPOLAR_SAMPLING", **settings)
     assert np.isfinite(epi).all() and epi.min() >= 0.0
-    luminance = brute @ np.array([0.2126, 0.7152, 0.0722])
-    exposure = 0.18 / np.exp(np.mean(np.log(np.maximum(luminance, 0) + 1e-6)))
-    return psnr(display(epi, exposure), display(brute, exposure)), brute, epi
+    return display_psnr(epi, brute), brute, epi
 
 
 CAMERA = look_at([0.0, 0.0, 2.0], [0.0, 100.0, 8.0])

@@ -68,10 +68,11 @@ def air_frame(frame: EpipolarFrame, camera: Camera) -> EpipolarFrame:
                                growth=reach / MIN_NEAR)
 
 
-def _above_ground(luts: Luts, camera, directions, t) -> np.ndarray:
-    """(..., K, 3): ``directions`` raised in their vertical plane, where needed, so that each
-    reaches distance ``t`` (K,) in the air: a ray that would hit the ground sooner is replaced
-    by the one that meets the ground at t. A pixel's ray never runs on under the ground, and
+def _above_ground(luts: Luts, camera, directions, t):
+    """((..., K, 3), (..., K) bool): ``directions`` raised in their vertical plane where needed
+    (the mask says where), so that each reaches distance ``t`` (K,) in the air: a ray that
+    would hit the ground sooner is replaced by the one that meets the ground at t. A pixel's
+    ray never runs on under the ground, and
     the pixel on the ground at distance t near the ground's horizon is that very ray: so the
     nodes around it hold the air a pixel there sees (clamping I at each node's own ground hit
     instead left a haze band 12-16% too dark along a plain's horizon)."""
@@ -84,8 +85,8 @@ def _above_ground(luts: Luts, camera, directions, t) -> np.ndarray:
     # Zenith cosine of the ray from radius r that meets the ground (radius R) at distance t.
     meets_at_t = (radius * radius - r * r - t * t) / (2.0 * r * np.maximum(t, 1e-9))
     raised = np.maximum(cos_zenith, np.minimum(meets_at_t, 1.0))              # (..., K)
-    # Exactly the given direction where nothing is raised (build tells those rays apart).
-    return np.where((raised > cos_zenith)[..., None], aerial._tilted(up, directions, raised), directions)
+    lifted = raised > cos_zenith
+    return np.where(lifted[..., None], aerial._tilted(up, directions, raised), directions), lifted
 
 
 def build(luts: Luts, frame: EpipolarFrame, camera_position) -> AirTables:
@@ -93,10 +94,10 @@ def build(luts: Luts, frame: EpipolarFrame, camera_position) -> AirTables:
     nodes = frame.node_directions()[:, :, None, :]                         # (S+1, N, 1, 3)
     camera = np.broadcast_to(np.asarray(camera_position, dtype=np.float64), nodes.shape)
     t = frame.distances()
-    directions = _above_ground(luts, camera, nodes, t)                     # (S+1, N, K, 3)
+    directions, lifted = _above_ground(luts, camera, nodes, t)             # (S+1, N, K, 3), (S+1, N, K)
     # Rays no distance raises keep one direction: their start look-ups are made once, not per
     # distance (a third of the tables' time; the sky's half of a frame has no raised ray).
-    straight = np.all(directions == nodes, axis=(-2, -1))                  # (S+1, N)
+    straight = ~lifted.any(axis=-1)                                        # (S+1, N)
     names = ("single", "single_mie", "higher")
     radiances = [np.zeros(directions.shape, dtype=np.float32) for _ in names]
     for rays, ray_directions in ((straight, nodes), (~straight, directions)):

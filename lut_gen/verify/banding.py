@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+from .display import LUMINANCE
+
 
 
 def _blur(image, sigma):

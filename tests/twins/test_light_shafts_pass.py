@@ -77,9 +77,7 @@ def test_every_scattering_mode_matches_the_twin_and_shafts_show(addon_package, t
         # The sample with the low sun behind the ridge: epipolar against brute force at the same
         # steps, shadow maps and modes, in display values (the bar: PSNR >= 40 dB).
         brute = twin(scattering_technique="BRUTE_FORCE")
-        exposure = 0.18 / np.exp(np.mean(np.log(np.maximum(brute @ [0.2126, 0.7152, 0.0722], 0) + 1e-6)))
-        shown = [np.clip(x * exposure / (1 + x * exposure), 0, 1) for x in (expected, brute)]
-        psnr = 10 * np.log10(1 / np.mean((shown[0] - shown[1]) ** 2))
+        psnr = extension_module("lut_gen.verify.display").display_psnr(expected, brute)
         print("epipolar vs brute force PSNR", psnr)
         assert psnr >= 40.0
     # The same pass from the command line, on the passes saved to EXR and the saved inputs.
