@@ -7,7 +7,9 @@ scene/frame/skylight.py) replaced a 4D sky look-up and four optical-depth look-u
 
 Outputs, as the camera sees them (times the air's transmittance T camera -> cloud): Alpha (the
 share of the light behind the cloud it hides), Light (T x the cloud's own light per unit sun),
-Sky Behind (T x the sky's radiance from the cloud on, per unit sun, from the 4D table).
+Sky Behind (T x the sky's radiance from the cloud on, per unit sun, from the 4D table); Air
+Shade and Air Shade Single (what the clouds take off the clear sky's air in front of them, per
+unit sun: lut_gen.clouds.air_shade.Shade's rest and single).
 """
 from __future__ import annotations
 
@@ -31,7 +33,9 @@ INPUTS = [
     ("Offset", "NodeSocketVector", (0.0, 0.0, 0.0)),
 ]
 OUTPUTS = [("Alpha", "NodeSocketFloat", None), ("Light", "NodeSocketVector", None),
-           ("Sky Behind", "NodeSocketVector", None)]
+           ("Sky Behind", "NodeSocketVector", None),
+           # lut_gen.clouds.air_shade.Shade: what the clouds take off the air in front of them
+           ("Air Shade", "NodeSocketVector", None), ("Air Shade Single", "NodeSocketVector", None)]
 
 
 def phase(g, cos_theta):
@@ -140,8 +144,8 @@ def thickness_fraction(g, map_image, uv, threshold):
 
 
 def air_terms(g, air_image, view):
-    """lut_gen.clouds.air_map.lookup: the three tiles' colours (sun, ambient, behind) at the
-    ray's direction ``view``."""
+    """lut_gen.clouds.air_map.lookup: the tiles' colours (air_map.TILES, in order) at the ray's
+    direction ``view``."""
     view_x, view_y, view_z = g.separate(view)
     width, height = air_map.SIZE
     u = g.add(g.div(g.math("ARCTAN2", view_x, view_y), 2 * math.pi), 0.5)
@@ -204,10 +208,15 @@ def build_cloud_group(map_image, table_image, air_image, params):
     sun_share = g.add(_single_scattering(g, tau, mu_s, abs_view, cos_sun_view, reflected),
                       _higher_orders(g, table_image, tau, abs_sun, mu_s, abs_view, cos_az, reflected))
     back, through = diffuse_two_stream(g, tau)
-    ambient_share = g.select(back, through, g.math("GREATER_THAN", cos_view, 0.0))
-    sun_colour, ambient_colour, behind = air_terms(g, air_image, view)
-    light = g.vscale(g.vmath("ADD", g.vscale(sun_colour, sun_share), g.vscale(ambient_colour, ambient_share)), hit)
+    looking_up = g.math("GREATER_THAN", cos_view, 0.0)
+    ambient_share = g.select(back, through, looking_up)
+    bounce_share = g.select(through, back, looking_up)
+    terms = dict(zip(air_map.TILES, air_terms(g, air_image, view)))
+    light = g.vmath("ADD", g.vmath("ADD", g.vscale(terms["sun"], sun_share), g.vscale(terms["ambient"], ambient_share)),
+                    g.vscale(terms["bounce"], bounce_share))
 
-    for name, socket in (("Alpha", g.mul(alpha, hit)), ("Light", light), ("Sky Behind", g.vscale(behind, hit))):
+    for name, socket in (("Alpha", g.mul(alpha, hit)), ("Light", g.vscale(light, hit)),
+                         ("Sky Behind", g.vscale(terms["behind"], hit)), ("Air Shade", g.vscale(terms["shade_rest"], hit)),
+                         ("Air Shade Single", g.vscale(terms["shade_single"], hit))):
         g.links.new(socket, gout.inputs[name])
     return tree

@@ -31,6 +31,7 @@ INPUTS = [
     ("Sun Angle", "NodeSocketFloat", math.radians(0.545)),    # apparent diameter (lamp's Angle)
     ("Light Scene", "NodeSocketFloat", 1.0),                  # 0: sky seen by camera/glossy rays only
     ("Clouds", "NodeSocketFloat", 0.0),                       # 1: the cloud layer is on
+    ("Light Shafts", "NodeSocketFloat", 0.0),                 # 1: the shafts pass redoes the air's single scattering
     ("Camera XY", "NodeSocketVector", (0.0, 0.0, 0.0)),       # the camera's world x, y (clouds only)
     *[(f"Cloud {name}", kind, default) for name, kind, default in CLOUD_INPUTS],
 ]
@@ -73,8 +74,9 @@ def _add_shaders(g, *shaders):
 
 
 def _cloudy(g, gin, clouds_tree, view, sun, height, sky, disc, ground, strength, sky_scale):
-    """(sky, disc, ground) with the cloud layer: lut_gen.clouds.sky.composite, and what lies
-    behind a cloud (the disc; the ground, seen from above the layer) dimmed by it."""
+    """(sky, disc, ground) with the cloud layer: lut_gen.clouds.sky.composite (camera rays:
+    light_shafts is the "Light Shafts" input), and what lies behind a cloud (the disc; the
+    ground, seen from above the layer) dimmed by it."""
     node = g.node("ShaderNodeGroup")
     node.node_tree = clouds_tree
     g.feed(node.inputs["View"], view)
@@ -83,8 +85,11 @@ def _cloudy(g, gin, clouds_tree, view, sun, height, sky, disc, ground, strength,
     g.feed(node.inputs["Camera XY"], gin.outputs["Camera XY"])
     for name, _, _ in CLOUD_INPUTS:
         g.feed(node.inputs[name], gin.outputs[f"Cloud {name}"])
-    alpha, light, behind = (node.outputs[name] for name in ("Alpha", "Light", "Sky Behind"))
-    cloud_light = g.vmath("SUBTRACT", g.vscale(light, strength), g.vscale(behind, g.mul(alpha, sky_scale)))
+    alpha, light, behind, shade, shade_single = (node.outputs[name] for name in (
+        "Alpha", "Light", "Sky Behind", "Air Shade", "Air Shade Single"))
+    taken = g.vmath("ADD", g.vscale(behind, alpha),
+                    g.vmath("ADD", shade, g.vscale(shade_single, g.sub(1.0, g.clamp(gin.outputs["Light Shafts"], 0.0, 1.0)))))
+    cloud_light = g.vmath("SUBTRACT", g.vscale(light, strength), g.vscale(taken, sky_scale))
     clear = g.sub(1.0, alpha)
     return (g.vmath("ADD", sky, cloud_light), g.vscale(disc, clear), g.vscale(ground, clear))
 

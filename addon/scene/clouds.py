@@ -87,6 +87,7 @@ def drive_sky_inputs(group, scene):
     keyframed controls (the offset, for wind) then animate the clouds in every render, farm
     chunks included."""
     drivers.drive_switch(group.inputs["Clouds"], scene, "clouds_enabled")
+    drivers.drive_switch(group.inputs["Light Shafts"], scene, "enable_light_shafts")
     for axis in range(2):
         drivers.drive_camera_axis(group.inputs["Camera XY"], axis, scene)
     _drive_cloud_controls(group, scene, "Cloud ")

@@ -1,12 +1,15 @@
 """The air between the camera and the cloud layer as a per-frame panorama: sky.AirTerms (T times
-the sun's colour at the cloud, T times the skylight there, T times the sky behind the cloud) for
-every view direction, which the "OLS Clouds" node group reads in three texture fetches instead
-of its 4D sky look-up and four optical-depth look-ups per camera ray (those made clouds cost 60%
-of a render; bench/bench_clouds.py). The terms depend on the sun, the camera height and the
-layer's height only, and vary slowly across the sky, so a small panorama holds them; the sharp
-part (the column met, from the cloud map) stays per ray.
+the sun's colour at the cloud, T times the skylight there, T times the sky behind the cloud, T
+times the ground's light on the cloud base, and the clouds' mean shade on the air in front of
+them, air_shade.py) for every view direction, which the "OLS Clouds" node group reads in six
+texture fetches instead of its 4D sky look-up and four optical-depth look-ups per camera ray
+(those made clouds cost 60% of a render; bench/bench_clouds.py) and the shade's dozen 4D
+look-ups and its integral along the ray. The terms depend on the sun, the camera height and the
+layer (its height, and its mean over the map for the shade) only, and vary slowly across the
+sky, so a small panorama holds them; the sharp part (the column met, from the cloud map) stays
+per ray.
 
-Layout: an atlas of three tiles stacked bottom to top (sun, ambient, behind), each W x H pixels
+Layout: an atlas of len(TILES) tiles stacked bottom to top (sky.AirTerms' fields), each W x H pixels
 plus a copy of its first and last rows on either side, so that Blender's Linear/Repeat look-up
 never blends two tiles or the two poles. Column i looks at azimuth ((i + 0.5) / W - 0.5) 2 pi
 from +Y toward +X, as the lighting panoramas. Row j of a tile at s = 2 (j + 0.5) / H - 1 looks

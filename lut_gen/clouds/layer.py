@@ -22,6 +22,11 @@ RANGES = {
     "scale": (2000.0, 50.0, 100000.0),       # metres, the size of cloud features
 }
 TOP_LIMIT = 20000.0
+# How far a sky pixel's light-shaft march may run to the cloud (clouds/shafts.py): beyond ~30 km
+# the haze in front of the shafts (a 30 km path at sea level has Mie + Rayleigh optical depth
+# ~0.6-0.8) hides them, and 32 steps over the path would be longer than a cloud feature (8 x 2 km
+# tiles).
+SHAFT_RANGE = 30_000.0
 
 
 @dataclass(frozen=True)

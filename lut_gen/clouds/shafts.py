@@ -22,13 +22,9 @@ from __future__ import annotations
 import numpy as np
 
 from . import field
-from .layer import CloudLayer, middle_hit
+from .layer import SHAFT_RANGE, CloudLayer, middle_hit  # noqa: F401 (shafts.SHAFT_RANGE)
 from .shadow import ground_transmittance
 
-# How far a sky pixel's march may run to the cloud: beyond ~30 km the haze in front of the
-# shafts (a 30 km path at sea level has Mie + Rayleigh optical depth ~0.6-0.8) hides them, and
-# 32 steps over the path would be longer than a cloud feature (8 x 2 km tiles).
-SHAFT_RANGE = 30_000.0
 ROWS = ("Cloud Layer", "Cloud Map")
 # The epipolar tables' distance intervals grow geometrically to kilometres near SHAFT_RANGE,
 # longer than a cloud feature: their cloud factor is the mean of samples this far apart (in

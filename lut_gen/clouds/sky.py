@@ -32,8 +32,8 @@ import numpy as np
 
 from ..tables import ground
 from ..tables.lookup import Luts
-from . import field, slab
-from .layer import CloudLayer, middle_hit
+from . import air_shade, field, slab
+from .layer import SHAFT_RANGE, CloudLayer, middle_hit
 
 
 @dataclass
@@ -42,14 +42,18 @@ class CloudView:
     alpha: np.ndarray          # (...) the fraction of the light behind the cloud it hides
     light: np.ndarray          # (..., 3) T C: the cloud's own light per unit sun as the camera sees it
     sky_behind: np.ndarray     # (..., 3) T S_P: the table's sky from P on (per unit sun) as the camera sees it
+    shade: air_shade.Shade     # (..., 3) each: what the clouds take off the air in front of them (air_shade.py)
 
 
 @dataclass
 class AirTerms:
-    """Per view direction, each already times T (transmittance camera -> P)."""
+    """Per view direction; the first three already times T (transmittance camera -> P)."""
     sun: np.ndarray            # (..., 3) T x the transmittance from P to the sun
     ambient: np.ndarray        # (..., 3) T x the ambient skylight at P / pi
     behind: np.ndarray         # (..., 3) T x S_P
+    bounce: np.ndarray         # (..., 3) T x the ground's light on the cloud base / pi (air_shade.Glow.ground)
+    shade_single: np.ndarray   # (..., 3) air_shade.Shade.single
+    shade_rest: np.ndarray     # (..., 3) air_shade.Shade.rest
 
 
 @dataclass
@@ -72,12 +76,40 @@ def _geometry(params, layer, height, rays, distance, sun) -> _Geometry:
     return _Geometry(point, (rays * centre_to_point).sum(-1) / radius, centre_to_point @ sun / radius, rays @ sun)
 
 
-def _air_terms(luts: Luts, layer: CloudLayer, height, rays, at: _Geometry) -> AirTerms:
+def _air_terms(luts: Luts, layer: CloudLayer, height, rays, at: _Geometry, sun) -> AirTerms:
     air = air_to_cloud(luts, height, rays[:, 2], layer.middle, at.cos_view)
     cos_sun = np.clip(at.cos_sun, -1.0, 1.0)
-    return AirTerms(air * luts.transmittance_to_top(layer.middle, at.cos_sun),
-                    air * luts.ambient_skylight(cos_sun) / np.pi,
-                    air * luts.sky_radiance(layer.middle, np.clip(at.cos_view, -1.0, 1.0), cos_sun, at.cos_sun_view))
+    sun_colour = luts.transmittance_to_top(layer.middle, at.cos_sun)
+    ambient_colour = luts.ambient_skylight(cos_sun) / np.pi
+    glow = air_shade.glow_sources(luts, layer, float(sun[2]))
+    # The mean column's light feeds the aerosol's forward glow only: four nodes in the edge band.
+    fractions, weights = air_shade.fraction_nodes(layer.coverage, band_nodes=4)
+    mean_light = sum(w * _column_light(layer.density * layer.thickness * f, at, sun_colour, ambient_colour, glow.ground)
+                     for f, w in zip(fractions, weights) if w > 0)
+    distance = np.linalg.norm(at.point - np.array([0.0, 0.0, height]), axis=-1)
+    shade = air_shade.shade(luts, layer, height, rays, distance, air, sun, SHAFT_RANGE, glow, mean_light)
+    return AirTerms(air * sun_colour, air * ambient_colour,
+                    air * luts.sky_radiance(layer.middle, np.clip(at.cos_view, -1.0, 1.0), cos_sun, at.cos_sun_view),
+                    air * glow.ground, shade.single, shade.rest)
+
+
+def _column_light(tau, at: _Geometry, sun_colour, ambient_colour, bounce_colour):
+    """(n, 3) the light of columns of optical thickness ``tau`` (n,) where the rays meet them,
+    per unit sun, from the sun's, the skylight's and the ground's light there (each (n, 3), or
+    all times T for the light as the camera sees it)."""
+    abs_view = np.maximum(np.abs(at.cos_view), slab.MIN_COS)
+    abs_sun = np.abs(at.cos_sun)
+    # The sun on the viewer's side of the slab: seen from below (looking up) with the sun under
+    # the cloud's horizontal, or from above with it over.
+    reflected = (at.cos_view * at.cos_sun) < 0
+    cos_az = slab.cos_azimuth(at.cos_view, at.cos_sun, at.cos_sun_view)
+    sun_share = slab.radiance(tau, abs_sun, abs_view, at.cos_sun_view, cos_az, reflected)
+    back, through = slab.diffuse_two_stream(tau)
+    # The skylight falls on the top, the ground's light on the base.
+    looking_up = at.cos_view > 0
+    ambient_share = np.where(looking_up, through, back)
+    bounce_share = np.where(looking_up, back, through)
+    return sun_colour * sun_share[:, None] + ambient_colour * ambient_share[:, None] + bounce_colour * bounce_share[:, None]
 
 
 def air_terms(luts: Luts, layer: CloudLayer, camera_height: float, directions, sun) -> AirTerms:
@@ -86,10 +118,11 @@ def air_terms(luts: Luts, layer: CloudLayer, camera_height: float, directions, s
     directions = np.asarray(directions, dtype=np.float64)
     height = max(float(camera_height), 0.0)
     distance, hit = middle_hit(layer, height, directions, luts.params.earth_radius)
+    sun = np.asarray(sun, float)
     terms = _air_terms(luts, layer, height, directions[hit],
-                       _geometry(luts.params, layer, height, directions[hit], distance[hit], np.asarray(sun, float)))
+                       _geometry(luts.params, layer, height, directions[hit], distance[hit], sun), sun)
     shape = directions.shape[:-1] + (3,)
-    out = AirTerms(np.zeros(shape), np.zeros(shape), np.zeros(shape))
+    out = AirTerms(*(np.zeros(shape) for _ in dataclasses.fields(AirTerms)))
     for term in dataclasses.fields(AirTerms):
         getattr(out, term.name)[hit] = getattr(terms, term.name)
     return out
@@ -111,24 +144,17 @@ def view(luts: Luts, layer: CloudLayer, cloud, camera_height: float, directions,
     # Only the rays that meet the layer are shaded (the lighting panorama's lower half never does).
     rays = directions[hit]
     at = _geometry(params, layer, height, rays, distance[hit], sun)
-    terms = _air_terms(luts, layer, height, rays, at) if air is None else air(rays)
+    terms = _air_terms(luts, layer, height, rays, at, sun) if air is None else air(rays)
     fraction = column_fraction(layer, cloud, at.point[:, 0] + camera_xy[0], at.point[:, 1] + camera_xy[1])
     tau = layer.density * layer.thickness * fraction
-    abs_view = np.maximum(np.abs(at.cos_view), slab.MIN_COS)
-    abs_sun = np.abs(at.cos_sun)
-    # The sun on the viewer's side of the slab: seen from below (looking up) with the sun under
-    # the cloud's horizontal, or from above with it over.
-    reflected = (at.cos_view * at.cos_sun) < 0
-    cos_az = slab.cos_azimuth(at.cos_view, at.cos_sun, at.cos_sun_view)
-    sun_share = slab.radiance(tau, abs_sun, abs_view, at.cos_sun_view, cos_az, reflected)
-    back, through = slab.diffuse_two_stream(tau)
-    ambient_share = np.where(at.cos_view > 0, through, back)
     shape = directions.shape[:-1]
     alpha, light, sky_behind = np.zeros(shape), np.zeros(shape + (3,)), np.zeros(shape + (3,))
-    alpha[hit] = -np.expm1(-tau / abs_view)
-    light[hit] = terms.sun * sun_share[:, None] + terms.ambient * ambient_share[:, None]
+    shade = air_shade.Shade(np.zeros(shape + (3,)), np.zeros(shape + (3,)))
+    alpha[hit] = -np.expm1(-tau / np.maximum(np.abs(at.cos_view), slab.MIN_COS))
+    light[hit] = _column_light(tau, at, terms.sun, terms.ambient, terms.bounce)
     sky_behind[hit] = terms.behind
-    return CloudView(hit, alpha, light, sky_behind)
+    shade.single[hit], shade.rest[hit] = terms.shade_single, terms.shade_rest
+    return CloudView(hit, alpha, light, sky_behind, shade)
 
 
 def air_to_cloud(luts: Luts, camera_height, cos_view, cloud_height, cos_view_at_cloud):
@@ -151,11 +177,18 @@ def air_to_cloud(luts: Luts, camera_height, cos_view, cloud_height, cos_view_at_
     return np.exp(-np.minimum(np.maximum(net, 0.0) @ params.extinction_matrix(), 80.0))
 
 
-def composite(clear_sky, scattering_scale, sun_strength, cloud: CloudView, ground=0.0):
+def air_taken(cloud: CloudView, light_shafts: bool = False):
+    """(..., 3) per unit sun, what the clouds take off the air in front of them (air_shade.py):
+    all of it, or with ``light_shafts`` on (camera rays) what the shafts pass does not redo."""
+    return cloud.shade.rest if light_shafts else cloud.shade.rest + cloud.shade.single
+
+
+def composite(clear_sky, scattering_scale, sun_strength, cloud: CloudView, ground=0.0, light_shafts=False):
     """The sky with clouds from the clear sky (``clear_sky``: S times the sun strength and the
     scattering scale, as the world shows it) and the ground the view meets (as the world shows
     it, or 0): the cloud's light scales with the sun strength, as the ground's does, and the sky
-    behind it as the sky does; the ground behind a cloud (seen from above the layer) is dimmed
-    by it, as the "OLS Sky" group dims it."""
-    behind = cloud.alpha[..., None] * cloud.sky_behind * (scattering_scale * sun_strength)
+    behind it and the air in front of it (air_taken) as the sky does; the ground behind a cloud
+    (seen from above the layer) is dimmed by it, as the "OLS Sky" group dims it."""
+    behind = (cloud.alpha[..., None] * cloud.sky_behind + air_taken(cloud, light_shafts)) * (scattering_scale
+                                                                                          * sun_strength)
     return clear_sky + (1.0 - cloud.alpha[..., None]) * ground + cloud.light * sun_strength - behind

@@ -38,9 +38,9 @@ def test_setup_scene_on_the_sample(addon, tmp_path):
     # 0.5 s more on this terrain (bench/bench_rerender.py).
     assert objects["terrain"].active_material.cycles.emission_sampling == "NONE"
     drivers = scene.world.node_tree.animation_data.drivers
-    # 7 for the sky (sun, strength, angle, height, scale) and 10 for the clouds (on, camera x, y,
-    # coverage, base, thickness, density, scale, offset x, y).
-    assert len(drivers) == 17 and all(d.driver.is_valid for d in drivers)
+    # 7 for the sky (sun, strength, angle, height, scale) and 11 for the clouds (on, light shafts,
+    # camera x, y, coverage, base, thickness, density, scale, offset x, y).
+    assert len(drivers) == 18 and all(d.driver.is_valid for d in drivers)
     colour = np.array(objects["sun"].data.color)
     assert colour[0] > colour[1] > colour[2] > 0            # low sun: reddened by the atmosphere
     # Rotating the sun re-colours it (depsgraph handler) and moves the sky's sun input.

@@ -18,35 +18,34 @@ the direct sun where the layer lets it through. Errors are relative, RGB norms
 (|model - MC| / |MC|); ``pytest -s`` prints every geometry with the tracer's standard error.
 
 Where the model holds and where it does not (measured with the seeds and path counts below; MC
-standard errors 1-7%, largest from below a thick layer under a low sun): 15 of the 54 geometries
-are within the bar, KNOWN_MODEL_ERRORS lists the other 39 with their numbers.
-test_within_the_bar_where_the_model_holds asserts the bar on the 15;
-test_the_known_model_errors_do_not_grow holds the other 39 at their measured error or better,
-until the model is fixed. What is wrong in the model, by the tracer's
-numbers (model / MC in green) and the same comparison with a black ground (ground_albedo 0 in
-both), which takes out the ground's part:
+standard errors 1-7%, largest from below a thick layer under a low sun): 28 of the 54 geometries
+are within the bar, KNOWN_MODEL_ERRORS lists the other 26 with their numbers.
+test_within_the_bar_where_the_model_holds asserts the bar on the 28;
+test_the_known_model_errors_do_not_grow holds the other 26 at their measured error or better,
+until the model is fixed.
 
-1. The air between the camera and the cloud is sunlit in the model (composite's S - T alpha S_P
-   is the clear sky's in-scattering over that stretch), but under a uniform layer it lies in the
-   cloud's shadow, lit only by the cloud base. From below, toward the sun, the haze's forward
-   peak is added in full: 21x looking up at 20 deg toward a sun at 20 or 5 deg (3.6-5.5x through
-   the thin layer), 2.6x looking up at 60 toward a sun at 60 (straight at the sun, whose disc
-   neither side counts), 1.8-3.4x looking up at 20 away from a low sun; it lifts the ground's
-   global irradiance to 1.9-2.5x (thick) and 1.2-1.5x (thin) under a sun at 20 and 5 deg. The
-   cloud's own light (T C) alone is within 0.7-1.2x of the tracer there (with a black ground).
-   (lut_gen/clouds/shafts.py may be meant to take this out; sky.view + composite alone do not.)
-2. Seen from above, the ground behind the cloud: the world dims it by the cloud's alpha, as the
-   "OLS Sky" group does (lut_gen.clouds.sky.composite took the ground in full before it was
-   given the ground apart: 1.14-1.29x from 3 km down at 60 deg). The thick layer is now within
-   3-8% from above at sun 60 and 20 deg. Through the thin layer the model is 0.75-0.95x: the
-   ground lit through the cloud and seen back through it (diffuse transmission both ways) is
-   missing, which 3. is part of.
-3. No light goes back and forth between the ground and the cloud base: the underside of the thick
-   layer away from a sun at 60 deg is 0.86-0.88x with the default ground (albedo 0.2), 0.93-0.94x
-   with a black one.
-4. The air above the layer is lit as over the clear ground (the table's), not over the bright
-   cloud top: looking down at 20 deg toward a sun at 5 deg the model is 0.82x (thick) and 0.80x
-   (thin) with a black ground (0.91x and 0.85x with the default ground, where 2. makes up part).
+What was fixed (2026-12-03, fourth session; model / MC in green, before -> after):
+1. The air between the camera and the cloud was lit as clear sky; under the deck it is in the
+   cloud's shadow. lut_gen/clouds/air_shade.py shades its single scattering and higher orders by
+   the sun's mean transmittance through the layer and adds the clouds' own light scattered by
+   it. Looking up 20 deg toward a sun at 20 or 5 deg under the thick layer: 20.7x -> 1.23x and
+   1.47x; through the thin layer 3.6-5.5x -> 0.9-1.3x; the ground's global irradiance under a
+   sun at 20 and 5 deg 1.9-2.5x -> 1.12-1.16x.
+2. The ground's light on the cloud base (reflected back down from below, let through up from
+   above) was missing: under the thick layer away from a sun at 60 deg 0.88x -> 1.01x; the thin
+   layer from above at sun 60 0.75-0.82x -> 0.98-1.01x.
+
+What is still wrong, by the tracer's numbers:
+- A sun 5 deg high: 16 of the 26. From below the model is 1.0-1.47x (the cloud's own light
+  alone, mostly the skylight let through, is over the tracer's total looking up 20 deg), from
+  above 0.84-1.17x. The cause is in the column's light under a grazing sun (the skylight on
+  the top taken as the ground's, the two-stream fluxes at mu_s = 0.09), not in the air.
+- The thin layer (optical depth 2.5) seen from below away from the sun: 1.24-1.32x. The cloud's
+  own light alone (slab single and higher orders, the skylight let through, the ground's light
+  on the base) is over the tracer's total; before the ground's light was added these were
+  within the bar by two errors that cancelled.
+- The thick layer from below under a sun at 20 deg: 1.15-1.28x; the ground's global irradiance
+  at sun 20: 1.12-1.13x.
 """
 from __future__ import annotations
 
@@ -83,53 +82,40 @@ PATHS_BELOW_THICK = 16384
 # The hemisphere quadrature of the model's diffuse irradiance: Gauss-Legendre in cos(zenith).
 HEMISPHERE_ZENITHS, HEMISPHERE_AZIMUTHS = 48, 96
 
-# Geometries over the bar at these seeds and path counts, 39 of 54 (the module docstring says
-# why): name: (RGB error, model / MC in green, MC standard error, relative). Within the bar (15):
-# tau 20: below up 60 sun 20 away (0.073); above, down 60 and down 20, sun 60 and 20, toward and
-# away (0.027-0.082); tau 2.5: below up 60 sun 60 toward (0.072) and away (0.079), sun 20 away
-# (0.083), below up 20 sun 60 toward (0.073), above down 60 sun 20 away (0.093), global
-# irradiance sun 60 (0.023). Those near 0.10 are so within the tracer's noise (standard errors
-# 2-4% there): they hold at these seeds, not by a margin.
+# Geometries over the bar at these seeds and path counts, 26 of 54 (the module docstring says
+# why): name: (RGB error, model / MC in green, MC standard error, relative). Within the bar (28):
+# every geometry at sun 60 and 20 deg seen from above (0.028-0.086), from below at sun 60
+# (0.015-0.073) but the thin layer looking up 60 away from the sun, from below toward a sun at 20
+# (0.054-0.081), and the global irradiance at sun 60 (0.043-0.044). Those near 0.10 are so
+# within the tracer's noise (standard errors 2-4% there): they hold at these seeds, not by a
+# margin.
 KNOWN_MODEL_ERRORS = {
-    "tau 20, below, up 60, sun 60 toward": (1.537, 2.58, 0.025),
-    "tau 20, below, up 60, sun 60 away": (0.124, 0.88, 0.025),
-    "tau 20, below, up 60, sun 20 toward": (0.387, 1.41, 0.043),
-    "tau 20, below, up 60, sun 5 toward": (0.450, 1.50, 0.053),
-    "tau 20, below, up 60, sun 5 away": (0.189, 1.21, 0.059),
-    "tau 20, below, up 20, sun 60 toward": (0.497, 1.44, 0.030),
-    "tau 20, below, up 20, sun 60 away": (0.160, 0.86, 0.030),
-    "tau 20, below, up 20, sun 20 toward": (18.021, 20.72, 0.050),
-    "tau 20, below, up 20, sun 20 away": (0.938, 1.81, 0.050),
-    "tau 20, below, up 20, sun 5 toward": (19.951, 20.82, 0.060),
-    "tau 20, below, up 20, sun 5 away": (2.082, 3.35, 0.069),
-    "tau 20, above, down 60, sun 5 toward": (0.102, 1.04, 0.041),
-    "tau 20, above, down 60, sun 5 away": (0.143, 1.10, 0.045),
-    "tau 20, above, down 20, sun 5 toward": (0.119, 0.87, 0.021),
-    "tau 20, above, down 20, sun 5 away": (0.147, 0.98, 0.032),
-    "tau 20, global irradiance, sun 60": (0.120, 1.10, 0.026),
-    "tau 20, global irradiance, sun 20": (0.813, 1.86, 0.040),
-    "tau 20, global irradiance, sun 5": (1.398, 2.51, 0.059),
-    "tau 2.5, below, up 60, sun 20 toward": (0.103, 1.12, 0.030),
-    "tau 2.5, below, up 60, sun 5 toward": (0.206, 1.19, 0.045),
-    "tau 2.5, below, up 60, sun 5 away": (0.187, 1.18, 0.048),
-    "tau 2.5, below, up 20, sun 60 away": (0.161, 0.84, 0.025),
-    "tau 2.5, below, up 20, sun 20 toward": (2.412, 3.57, 0.029),
-    "tau 2.5, below, up 20, sun 20 away": (0.283, 1.27, 0.038),
-    "tau 2.5, below, up 20, sun 5 toward": (4.766, 5.49, 0.047),
-    "tau 2.5, below, up 20, sun 5 away": (0.733, 1.83, 0.048),
-    "tau 2.5, above, down 60, sun 60 toward": (0.256, 0.75, 0.022),
-    "tau 2.5, above, down 60, sun 60 away": (0.191, 0.82, 0.021),
-    "tau 2.5, above, down 60, sun 20 toward": (0.123, 0.90, 0.035),
-    "tau 2.5, above, down 60, sun 5 toward": (0.129, 0.99, 0.043),
-    "tau 2.5, above, down 60, sun 5 away": (0.137, 0.98, 0.047),
-    "tau 2.5, above, down 20, sun 60 toward": (0.200, 0.82, 0.018),
-    "tau 2.5, above, down 20, sun 60 away": (0.204, 0.81, 0.020),
-    "tau 2.5, above, down 20, sun 20 toward": (0.117, 0.89, 0.018),
-    "tau 2.5, above, down 20, sun 20 away": (0.139, 0.89, 0.027),
-    "tau 2.5, above, down 20, sun 5 toward": (0.169, 0.82, 0.021),
-    "tau 2.5, above, down 20, sun 5 away": (0.247, 0.79, 0.040),
-    "tau 2.5, global irradiance, sun 20": (0.202, 1.23, 0.036),
-    "tau 2.5, global irradiance, sun 5": (0.480, 1.46, 0.048),
+    "tau 20, below, up 60, sun 20 away": (0.139, 1.15, 0.043),
+    "tau 20, below, up 60, sun 5 toward": (0.177, 1.04, 0.053),
+    "tau 20, below, up 60, sun 5 away": (0.182, 1.00, 0.059),
+    "tau 20, below, up 20, sun 20 toward": (0.183, 1.23, 0.050),
+    "tau 20, below, up 20, sun 20 away": (0.245, 1.28, 0.050),
+    "tau 20, below, up 20, sun 5 toward": (0.431, 1.47, 0.060),
+    "tau 20, below, up 20, sun 5 away": (0.411, 1.41, 0.069),
+    "tau 20, above, down 60, sun 5 toward": (0.103, 1.05, 0.041),
+    "tau 20, above, down 60, sun 5 away": (0.147, 1.11, 0.045),
+    "tau 20, above, down 20, sun 5 toward": (0.117, 0.87, 0.021),
+    "tau 20, above, down 20, sun 5 away": (0.148, 0.99, 0.032),
+    "tau 20, global irradiance, sun 20": (0.113, 1.12, 0.040),
+    "tau 20, global irradiance, sun 5": (0.228, 1.16, 0.059),
+    "tau 2.5, below, up 60, sun 60 away": (0.263, 1.28, 0.022),
+    "tau 2.5, below, up 60, sun 20 away": (0.208, 1.24, 0.037),
+    "tau 2.5, below, up 60, sun 5 toward": (0.162, 1.12, 0.045),
+    "tau 2.5, below, up 60, sun 5 away": (0.225, 1.21, 0.048),
+    "tau 2.5, below, up 20, sun 20 away": (0.299, 1.32, 0.038),
+    "tau 2.5, below, up 20, sun 5 toward": (0.268, 1.26, 0.047),
+    "tau 2.5, below, up 20, sun 5 away": (0.455, 1.46, 0.048),
+    "tau 2.5, above, down 60, sun 5 toward": (0.175, 1.15, 0.043),
+    "tau 2.5, above, down 60, sun 5 away": (0.202, 1.17, 0.047),
+    "tau 2.5, above, down 20, sun 5 toward": (0.147, 0.84, 0.021),
+    "tau 2.5, above, down 20, sun 5 away": (0.185, 0.87, 0.040),
+    "tau 2.5, global irradiance, sun 20": (0.115, 1.13, 0.036),
+    "tau 2.5, global irradiance, sun 5": (0.220, 1.18, 0.048),
 }
 
 
@@ -182,13 +168,14 @@ def luts():
     return lut_gen.bake(PARAMS, resolution="draft")
 
 
-def model_radiance(luts, layer, height, directions, sun):
-    """What the world shows (sky.view + composite, scattering scale and sun strength 1), per unit sun."""
+def model_radiance(luts, layer, height, directions, sun, light_shafts=False):
+    """What the world shows (sky.view + composite, scattering scale and sun strength 1), per unit
+    sun; ``light_shafts``: as camera rays show it with the shafts pass on (before the pass)."""
     ranks = field.cloud_map(0, 32)             # coverage 1: every rank is a full column
     cos_sun_view = directions @ sun
     clear = luts.sky_radiance(height, directions[:, 2], sun[2], cos_sun_view)
     ground = luts.ground_radiance(height, directions[:, 2], sun[2], cos_sun_view)
-    return sky.composite(clear, 1.0, 1.0, sky.view(luts, layer, ranks, height, directions, sun), ground)
+    return sky.composite(clear, 1.0, 1.0, sky.view(luts, layer, ranks, height, directions, sun), ground, light_shafts)
 
 
 def model_irradiance(luts, layer, height, sun):
@@ -284,14 +271,14 @@ def test_the_known_model_errors_do_not_grow(comparison):
 
 @pytest.mark.slow
 def test_light_shafts_take_the_clouds_shadow_out_of_the_air(luts, comparison):
-    """With light shafts on (the default; LUT single scattering, multiple UNOCCLUDED), the pass
-    weights the air's single scattering in front of the cloud by the cloud's transmittance
-    toward the sun (lut_gen.clouds.shafts): under a uniform layer, world + shafts against the
-    tracer. Measured relative errors: thick layer, looking up 60 deg 0.02-0.19 (world alone up
-    to 1.5); looking up 20 deg toward a sun at 20 / 5 deg 1.6 / 3.5 (world alone 18 / 20); thin
-    layer 0.04-0.20, but 0.79 toward a sun at 5 deg (world alone 4.8). What stays: the air's multiple scattering under the cloud is still the
-    clear sky's (OCCLUDED takes it out and lands at 0.57-0.85x: the cloud base's light on that
-    air is in neither mode)."""
+    """With light shafts on (the default; LUT single scattering, multiple UNOCCLUDED), camera
+    rays of the world leave the air's single scattering in front of the cloud to the pass
+    (sky.composite with light_shafts), which weights it by the cloud's transmittance toward the
+    sun step by step (lut_gen.clouds.shafts): under a uniform layer, world + shafts against the
+    tracer must come to what the world alone gives with the mean shade (air_shade.py). Measured:
+    world + shafts equals the world-alone error within 0.001 on every geometry from below
+    (0.010-0.456, median 0.18); the world's camera rays alone (before the pass) are up to 17x off
+    toward a low sun, as the whole world was before air_shade."""
     ranks = field.cloud_map(0, 32)
     improved = {}
     for layer_name, layer in LAYERS.items():
@@ -303,14 +290,18 @@ def test_light_shafts_take_the_clouds_shadow_out_of_the_air(luts, comparison):
             for j, (sun_elevation, side) in enumerate(SUNS):
                 sun = SUN_VECTORS[j]
                 name = f"{layer_name}, {view_name}, sun {sun_elevation:.0f} {side}"
-                world, mc, _ = comparison[name]
+                _, mc, _ = comparison[name]
+                world = model_radiance(luts, layer, height, view[None], sun, light_shafts=True)[0]
                 lit = aerial.light_shafts(luts, camera[None], end[None], sun,
                                           lambda points: shadow.ground_transmittance(layer, ranks, points, sun), 64)[0]
                 with_shafts = world + lit - aerial.segment_inscattering(luts, camera[None], end[None], sun)[0]
                 improved[name] = (relative_error(world, mc), relative_error(with_shafts, mc))
                 print(f"{name:42s} world {improved[name][0]:6.3f}  world + shafts {improved[name][1]:6.3f}")
     # Toward the sun, where the air's forward peak lies in the cloud's shadow, the shafts take
-    # most of the excess out.
+    # the excess out; everywhere they land where the world's mean shade does.
     toward = {name: errors for name, errors in improved.items() if "toward" in name and errors[0] > 0.3}
     assert toward and all(after < 0.5 * before for before, after in toward.values()), toward
     assert np.median([after for _, after in improved.values()]) < 0.2
+    for name, (_, after) in improved.items():
+        model, mc, _ = comparison[name]
+        assert abs(after - relative_error(model, mc)) < 0.02, (name, after, relative_error(model, mc))

@@ -22,7 +22,7 @@ def bake_dir(tmp_path_factory):
     return directory
 
 
-def build_cloudy_world(pkg, bake_dir, sun, camera_height, layer, clouds_on=1.0):
+def build_cloudy_world(pkg, bake_dir, sun, camera_height, layer, clouds_on=1.0, light_shafts=0.0):
     images = extension_module("addon.scene.tables.luts").load_images(bake_dir)
     luts = pkg.lut_gen.load(bake_dir)
     nodes = extension_module("addon.nodes")
@@ -40,6 +40,7 @@ def build_cloudy_world(pkg, bake_dir, sun, camera_height, layer, clouds_on=1.0):
     group = world_of_group(bpy.context.scene, sky)
     values = {"Sun Direction": sun, "Camera Height": camera_height, "Sun Strength": STRENGTH,
               "Scattering Scale": SCALE, "Sun Angle": math.radians(0.545), "Clouds": clouds_on,
+              "Light Shafts": light_shafts,
               "Cloud Coverage": layer.coverage, "Cloud Base": layer.base, "Cloud Thickness": layer.thickness,
               "Cloud Density": layer.density, "Cloud Scale": layer.scale,
               "Cloud Offset": (layer.offset[0], layer.offset[1], 0.0)}
@@ -48,14 +49,14 @@ def build_cloudy_world(pkg, bake_dir, sun, camera_height, layer, clouds_on=1.0):
     return luts, extension_module("addon.scene.frame.cloud_map").map_ranks(map_image), atlas
 
 
-def twin_sky(pkg, luts, ranks, layer, sun, camera_height, directions, atlas):
+def twin_sky(pkg, luts, ranks, layer, sun, camera_height, directions, atlas, light_shafts=False):
     cloud_sky = pkg.lut_gen.clouds.sky
     cos_sun_view = directions @ np.array(sun)
     clear = luts.sky_radiance(camera_height, directions[..., 2], sun[2], cos_sun_view) * SCALE * STRENGTH
     ground = luts.ground_radiance(camera_height, directions[..., 2], sun[2], cos_sun_view) * STRENGTH
     view = cloud_sky.view(luts, layer, ranks, camera_height, directions, np.array(sun),
                           air=pkg.lut_gen.clouds.air_map.lookup(atlas))
-    return cloud_sky.composite(clear, SCALE, STRENGTH, view, ground).mean(axis=2), view
+    return cloud_sky.composite(clear, SCALE, STRENGTH, view, ground, light_shafts).mean(axis=2), view
 
 
 def sun_at(elevation, azimuth=30.0):
@@ -63,17 +64,19 @@ def sun_at(elevation, azimuth=30.0):
     return (math.sin(az) * math.cos(el), math.cos(az) * math.cos(el), math.sin(el))
 
 
-@pytest.mark.parametrize("sun_elevation, coverage", [(35.0, 0.5), (4.0, 0.7)])
-def test_cloudy_sky_render_matches_numpy_twin(addon_package, bake_dir, tmp_path, sun_elevation, coverage):
+# With light shafts on, camera rays leave the air's single scattering to the shafts pass.
+@pytest.mark.parametrize("sun_elevation, coverage, light_shafts", [(35.0, 0.5, False), (4.0, 0.7, True)])
+def test_cloudy_sky_render_matches_numpy_twin(addon_package, bake_dir, tmp_path, sun_elevation, coverage,
+                                              light_shafts):
     layer = addon_package.lut_gen.clouds.layer.CloudLayer(coverage=coverage, scale=4000.0, seed=11,
                                                            offset=(300.0, -700.0))
     scene = empty_scene(width=128, height=64, samples=32)
     panorama_camera(scene)
     sun = sun_at(sun_elevation)
-    luts, ranks, atlas = build_cloudy_world(addon_package, bake_dir, sun, 2.0, layer)
+    luts, ranks, atlas = build_cloudy_world(addon_package, bake_dir, sun, 2.0, layer, light_shafts=float(light_shafts))
     rendered = render_rgb(scene, tmp_path / "clouds.exr")
     directions = panorama_directions(128, 64, supersample=4)
-    twin, view = twin_sky(addon_package, luts, ranks, layer, sun, 2.0, directions, atlas)
+    twin, view = twin_sky(addon_package, luts, ranks, layer, sun, 2.0, directions, atlas, light_shafts)
     save_png(tmp_path / "clouds.png", rendered, exposure=1.0 / max(np.percentile(twin, 90), 1e-9))
 
     near_sun = (directions @ np.array(sun) > math.cos(math.radians(3.0))).any(axis=2)
@@ -84,7 +87,9 @@ def test_cloudy_sky_render_matches_numpy_twin(addon_package, bake_dir, tmp_path,
     assert np.median(err[~near_sun]) <= 0.02, np.median(err[~near_sun])
     assert np.median(err[clouded & ~near_sun]) <= 0.03, np.median(err[clouded & ~near_sun])
     # The clouds change the picture: the twin without them is far off where they are.
-    clear, _ = twin_sky(addon_package, luts, ranks, layer.__class__(coverage=0.0), sun, 2.0, directions, atlas)
+    clear_layer = layer.__class__(coverage=0.0)
+    clear_atlas = addon_package.lut_gen.clouds.air_map.compute(luts, clear_layer, 2.0, np.array(sun))
+    clear, _ = twin_sky(addon_package, luts, ranks, clear_layer, sun, 2.0, directions, clear_atlas)
     assert np.median(np.abs(clear @ LUMINANCE - twin @ LUMINANCE)[clouded] / (twin @ LUMINANCE)[clouded]) > 0.1
 
 

@@ -50,7 +50,7 @@ def _with_clouds(luts, clouds, sun, camera_height, sky, ground, camera_xy):
     (scaled by the sun strength alone) gains the clouds' own light."""
     layer, ranks = clouds
     view = cloud_sky.view(luts, layer, ranks, camera_height, panorama.directions(*SIZE), sun, camera_xy)
-    hidden = view.alpha[..., None] * view.sky_behind
+    hidden = view.alpha[..., None] * view.sky_behind + cloud_sky.air_taken(view)
     behind_ground = 1.0 - np.where(camera_height >= layer.middle, view.alpha, 0.0)[..., None]
     return sky - hidden, ground * behind_ground + view.light
 
@@ -64,9 +64,10 @@ def _write(image, radiance):
 
 def _update_cloud_air(info, sun, camera_height, layer, force):
     """The camera rays' air map (lut_gen.clouds.air_map) when the sun, the camera height, the
-    layer's height or the bake changed; the coverage, the map and the camera's x, y leave it."""
+    layer (its mean over the map: coverage, height, thickness, density) or the bake changed;
+    the map's seed, scale and offset and the camera's x, y leave it."""
     image = ensure_cloud_air_image()
-    key = (info.key, layer.middle)
+    key = (info.key, layer.coverage, layer.base, layer.thickness, layer.density)
     if not force and _current(image, key, sun, camera_height):
         return
     _write(image, air_map.compute(info.image_luts(), layer, camera_height, sun))
