@@ -35,7 +35,7 @@ from ..model.atmosphere import mie_phase, rayleigh_phase
 from ..model.profiles import densities
 from ..passes import aerial
 from ..tables.lookup import Luts
-from . import field, slab
+from . import field, slab, top_light
 from .layer import CloudLayer
 
 GLOW_STEPS = 48             # quadrature points along a ray, camera -> cloud
@@ -48,25 +48,6 @@ class Shade:
     rest: np.ndarray        # (..., 3) per unit sun
 
 
-def fraction_nodes(coverage: float, band_nodes: int = 8):
-    """(fractions, weights): a quadrature of the map's columns' thickness fractions. The map's
-    ranks are uniform on [0, 1] and the fraction is a clamped ramp of the rank
-    (field.thickness_fraction): none below the threshold, full above it plus SOFTNESS, linear
-    between, so the band's midpoints and the full column integrate any function of it."""
-    threshold = float(field.threshold(coverage))
-    low, high = min(max(threshold, 0.0), 1.0), min(max(threshold + field.SOFTNESS, 0.0), 1.0)
-    ranks = low + (np.arange(band_nodes) + 0.5) / band_nodes * (high - low)
-    fractions = np.append(field.thickness_fraction(ranks, coverage), 1.0)
-    weights = np.append(np.full(band_nodes, (high - low) / band_nodes), 1.0 - high)
-    return fractions, weights
-
-
-def _column_means(coverage: float, function):
-    """The mean of ``function(thickness fraction)`` (a column's zero counted) over the map."""
-    fractions, weights = fraction_nodes(coverage)
-    return sum(w * function(f) for f, w in zip(fractions, weights))
-
-
 def sun_through(layer: CloudLayer, cos_sun: float) -> float:
     """The sun's mean transmittance through the layer, exp(-tau / mu_s) over the columns (as
     shadow.ground_transmittance per column); 1 with the sun below the horizon (its light then
@@ -74,7 +55,7 @@ def sun_through(layer: CloudLayer, cos_sun: float) -> float:
     if cos_sun <= 0:
         return 1.0
     full = layer.density * layer.thickness
-    fractions, weights = fraction_nodes(layer.coverage)
+    fractions, weights = field.fraction_nodes(layer.coverage)
     clear = 1.0 - weights.sum()
     return float(clear + np.sum(weights * np.exp(-full * fractions / max(cos_sun, slab.MIN_COS))))
 
@@ -95,7 +76,7 @@ def glow_sources(luts: Luts, layer: CloudLayer, cos_sun: float) -> Glow:
     full = layer.density * layer.thickness
     mu_s = max(cos_sun, 0.0)
     top_sun = luts.transmittance_to_top(layer.middle, np.array(cos_sun)) * mu_s
-    sky = luts.ambient_skylight(np.array(cos_sun))
+    sky = top_light.skylight(luts, layer, np.array(cos_sun))
 
     def fluxes(fraction):
         tau = full * fraction
@@ -103,7 +84,7 @@ def glow_sources(luts: Luts, layer: CloudLayer, cos_sun: float) -> Glow:
         back, through_sky = slab.diffuse_two_stream(tau)
         return np.array([through_sun, through_sky, back])
 
-    through_sun, through_sky, back = _column_means(layer.coverage, fluxes)
+    through_sun, through_sky, back = field.column_mean(layer.coverage, fluxes)
     base = top_sun * through_sun + sky * through_sky
     shaded = sun_through(layer, cos_sun)
     clear = (luts.transmittance_to_top(0.0, np.array(cos_sun)) * mu_s + luts.ambient_skylight(np.array(cos_sun))) * shaded
@@ -130,11 +111,13 @@ def _upper_share_table(mie_g: float, size: int = 257):
     return cos_view, shares[0], shares[1]
 
 
-def cloud_glow(luts: Luts, camera_height: float, directions, distance, glow: Glow, cloud_light) -> np.ndarray:
+def cloud_glow(luts: Luts, camera_height: float, directions, distance, glow: Glow, cloud_light,
+               over_layer: bool = False) -> np.ndarray:
     """(n, 3) the clouds' light scattered toward the camera by the air along ``directions`` (n, 3)
-    out to ``distance`` (n,): from above the base's mean light (Rayleigh) or the mean column's
-    light along the ray itself, ``cloud_light`` (n, 3) (the aerosol's forward peak sees little
-    else: a thin layer is far brighter toward the sun than away), from below the ground's."""
+    out to ``distance`` (n,), all from under the layer or all from ``over_layer``: ``glow``'s light from
+    above and from below for the Rayleigh part, and for the aerosol's forward peak the mean
+    column's light along the ray itself, ``cloud_light`` (n, 3), on the layer's side (it sees
+    little else: a thin layer is far brighter toward the sun than away)."""
     # Everything but cloud_light depends on the ray's elevation alone (the distance too): the
     # integral is made once per elevation (a panorama's row).
     cos_view, row = np.unique(directions[:, 2], return_inverse=True)
@@ -145,6 +128,8 @@ def cloud_glow(luts: Luts, camera_height: float, directions, distance, glow: Glo
     up_r = np.interp(cos_view, grid, rayleigh_up)[:, None]
     up_m = np.interp(cos_view, grid, mie_up)[row, None]
     light_r = (rayleigh * (up_r * glow.above + (1.0 - up_r) * glow.below))[row]
+    if over_layer:                   # the column's light is below
+        return light_r + mie[row] * (up_m * glow.above + (1.0 - up_m) * cloud_light)
     return light_r + mie[row] * (up_m * cloud_light + (1.0 - up_m) * glow.below)
 
 
@@ -163,7 +148,7 @@ def _scattering_along(params, camera_height, directions, distance):
 
 def shade(luts: Luts, layer: CloudLayer, camera_height: float, directions, distance, transmittance,
           sun, reach: float, glow: Glow, cloud_light) -> Shade:
-    """What the world takes off the clear sky's light for rays from under the layer along
+    """What the world takes off the clear sky's light for rays from the camera along
     ``directions`` (n, 3) meeting it ``distance`` (n,) away with the air's transmittance
     ``transmittance`` (n, 3) to there; ``reach``: how far the light shafts march (sky pixels end
     at min(distance, reach)); ``glow``: glow_sources; ``cloud_light`` (n, 3): the mean column's
@@ -171,8 +156,15 @@ def shade(luts: Luts, layer: CloudLayer, camera_height: float, directions, dista
     directions = np.asarray(directions, dtype=np.float64)
     sun = np.asarray(sun, dtype=np.float64)
     n = len(directions)
-    if n == 0 or camera_height >= layer.middle:
+    if n == 0:
         return Shade(np.zeros((n, 3)), np.zeros((n, 3)))
+    if camera_height >= layer.middle:
+        # Over the deck the air is sunlit as the tables have it, but over a bright top, not
+        # the ground: it scatters the deck's light beyond the ground's the tables count.
+        deck = top_light.deck_light(luts, layer, float(sun[2]))
+        extra = np.maximum(cloud_light - deck.counted, 0.0)
+        over = Glow(above=np.zeros(3), below=deck.extra, ground=np.zeros(3))
+        return Shade(np.zeros((n, 3)), -cloud_glow(luts, camera_height, directions, distance, over, extra, True))
     camera = np.array([0.0, 0.0, camera_height])
     cloud = camera + directions * distance[:, None]
     near = camera + directions * np.minimum(distance, reach)[:, None]

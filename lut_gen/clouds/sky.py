@@ -9,7 +9,8 @@ where the column's vertical optical thickness is tau = density * thickness * fra
   higher orders from the Monte Carlo table), seen through the column (from below) or reflected
   (the sun on the viewer's side: from above, or from below when the sun is under the cloud's
   horizontal, which lights the undersides at sunset);
-- the ambient skylight at P, diffusely transmitted or reflected (slab.diffuse_two_stream);
+- the ambient skylight on the layer's top (top_light.py), diffusely transmitted or reflected
+  (slab.diffuse_two_stream);
 - the column hides alpha = 1 - exp(-tau / |mu_v|) of what lies behind it.
 The air between the camera and P hazes it. With S the sky's radiance from the camera and S_P
 the sky's from P along the same ray (both from the 4D table), eq. (8) gives the air's light in
@@ -32,7 +33,7 @@ import numpy as np
 
 from ..tables import ground
 from ..tables.lookup import Luts
-from . import air_shade, field, slab
+from . import air_shade, field, slab, top_light
 from .layer import SHAFT_RANGE, CloudLayer, middle_hit
 
 
@@ -80,10 +81,10 @@ def _air_terms(luts: Luts, layer: CloudLayer, height, rays, at: _Geometry, sun) 
     air = air_to_cloud(luts, height, rays[:, 2], layer.middle, at.cos_view)
     cos_sun = np.clip(at.cos_sun, -1.0, 1.0)
     sun_colour = luts.transmittance_to_top(layer.middle, at.cos_sun)
-    ambient_colour = luts.ambient_skylight(cos_sun) / np.pi
+    ambient_colour = top_light.skylight(luts, layer, cos_sun) / np.pi
     glow = air_shade.glow_sources(luts, layer, float(sun[2]))
     # The mean column's light feeds the aerosol's forward glow only: four nodes in the edge band.
-    fractions, weights = air_shade.fraction_nodes(layer.coverage, band_nodes=4)
+    fractions, weights = field.fraction_nodes(layer.coverage, band_nodes=4)
     mean_light = sum(w * _column_light(layer.density * layer.thickness * f, at, sun_colour, ambient_colour, glow.ground)
                      for f, w in zip(fractions, weights) if w > 0)
     distance = np.linalg.norm(at.point - np.array([0.0, 0.0, height]), axis=-1)

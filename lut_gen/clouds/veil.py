@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import slab
+from . import slab, top_light
 from .layer import CloudLayer
 from .sky import column_fraction
 
@@ -44,7 +44,7 @@ MIN_RISE = 1.0      # m: a step's height range is at least this, so level rays t
 class VeilLight:
     """The light reaching the layer, per unit sun, for the frame (the scene spans a few tens of
     kilometres: the same for every point): the sun's transmittance through the atmosphere to the
-    layer's middle (RGB) and the ambient skylight's irradiance there (RGB)."""
+    layer's middle (RGB) and the sky's irradiance on its top (RGB, top_light.py)."""
     sun: tuple
     ambient: tuple
 
@@ -52,7 +52,7 @@ class VeilLight:
     def of(cls, luts, layer: CloudLayer, sun_direction) -> "VeilLight":
         cos_sun = float(np.clip(np.asarray(sun_direction, dtype=np.float64)[2], -1.0, 1.0))
         sun = np.asarray(luts.transmittance_to_top(layer.middle, np.array([cos_sun])), dtype=np.float64).reshape(3)
-        ambient = np.asarray(luts.ambient_skylight(np.array([cos_sun])), dtype=np.float64).reshape(3)
+        ambient = np.asarray(top_light.skylight(luts, layer, np.array([cos_sun])), dtype=np.float64).reshape(3)
         return cls(tuple(sun), tuple(ambient))          # 0 where the Earth hides the sun from the layer
 
 

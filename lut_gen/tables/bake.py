@@ -75,8 +75,6 @@ SPHERE_BAND_NODES = 49          # ... inside the band of horizons (cos-spaced)
 SPHERE_ABOVE_NODES = 25         # ... above it (angle-spaced, up to the zenith)
 SPHERE_AZIMUTHS = 64            # azimuth samples of the sphere integral (full circle)
 AMBIENT_HEIGHT_M = 20.0         # the sample's camera height for eq. (3)
-AMBIENT_ZENITHS = 24
-AMBIENT_AZIMUTHS = 32           # over half a circle; the sky is symmetric about the sun plane
 MAX_ORDERS = 10
 
 
@@ -559,16 +557,7 @@ def bake_higher_orders(params: AtmosphereParams, media: Media, dims, single_rayl
 
 def bake_ambient(luts: Luts, n: int) -> np.ndarray:
     """E_sky(c_s) = integral over the upper hemisphere of L_M(20 m, w, l) (w . N) dw."""
-    mu, mu_w = np.polynomial.legendre.leggauss(AMBIENT_ZENITHS)
-    mu, mu_w = 0.5 * (mu + 1), 0.5 * mu_w
-    az = (np.arange(AMBIENT_AZIMUTHS) + 0.5) * math.pi / AMBIENT_AZIMUTHS
-    az_w = 2 * math.pi / AMBIENT_AZIMUTHS            # half circle, counted twice
-    cos_sun = par.centre_nodes(n) * 2 - 1
-    sin_sun = np.sqrt(1 - cos_sun ** 2)
-    ca = mu[None, :, None]
-    ct = ca * cos_sun[:, None, None] + np.sqrt(1 - ca ** 2) * sin_sun[:, None, None] * np.cos(az)
-    radiance = luts.sky_radiance(AMBIENT_HEIGHT_M, ca, cos_sun[:, None, None], ct)          # (n, mu, az, 3)
-    return np.einsum("nmac,m->nc", radiance, mu * mu_w * az_w).astype(np.float32)
+    return luts.sky_irradiance(AMBIENT_HEIGHT_M, par.centre_nodes(n) * 2 - 1).astype(np.float32)
 
 
 # -- driver --------------------------------------------------------------------------------

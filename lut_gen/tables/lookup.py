@@ -36,6 +36,8 @@ from .optical_depth import table_net_density
 GEOMETRIC_AXES = (0, 2)
 
 TABLES = ("single", "higher", "multiple")
+SKY_IRRADIANCE_ZENITHS = 24     # quadrature of sky_irradiance (the ambient table's bake)
+SKY_IRRADIANCE_AZIMUTHS = 32
 TABLES_WITH_MIE = ("single", "multiple")
 STORED_TABLES = TABLES + ("single_mie",)      # what phase_free look-ups may read
 def with_phases(params: AtmosphereParams, stored: np.ndarray, mie: Optional[np.ndarray], cos_sun_view) -> np.ndarray:
@@ -172,6 +174,24 @@ class Luts:
         return np.where(hits[..., None], view * lit * (params.ground_albedo / np.pi), 0.0).astype(np.float32)
 
     # -- ambient skylight ------------------------------------------------------
+    def sky_irradiance(self, height_m: float, cos_sun_zenith, zeniths: int = SKY_IRRADIANCE_ZENITHS,
+                       azimuths: int = SKY_IRRADIANCE_AZIMUTHS) -> np.ndarray:
+        """(n, 3) E_sky(h, c_s): the 4D table's radiance over the upper hemisphere at
+        ``height_m``, times (w . N), per unit sun, for each of the (n,) sun zenith cosines
+        (eq. 3; the ambient table is this at AMBIENT_HEIGHT_M). Gauss-Legendre in the zenith
+        cosine, midpoints over half a circle of azimuth (the sky is symmetric about the sun's
+        plane)."""
+        mu, mu_w = np.polynomial.legendre.leggauss(zeniths)
+        mu, mu_w = 0.5 * (mu + 1), 0.5 * mu_w
+        az = (np.arange(azimuths) + 0.5) * np.pi / azimuths
+        az_w = 2 * np.pi / azimuths                     # half circle, counted twice
+        cos_sun = np.atleast_1d(np.asarray(cos_sun_zenith, dtype=np.float64))
+        sin_sun = np.sqrt(np.maximum(1 - cos_sun ** 2, 0.0))
+        ca = mu[None, :, None]
+        ct = ca * cos_sun[:, None, None] + np.sqrt(1 - ca ** 2) * sin_sun[:, None, None] * np.cos(az)
+        radiance = self.sky_radiance(height_m, ca, cos_sun[:, None, None], ct)              # (n, mu, az, 3)
+        return np.einsum("nmac,m->nc", radiance, mu * mu_w * az_w)
+
     def ambient_skylight(self, cos_sun_zenith) -> np.ndarray:
         """Irradiance on a horizontal plane from the whole sky (eq. 3), per unit sun."""
         x = par.unit_to_centre_x(np.asarray(cos_sun_zenith) * 0.5 + 0.5, self.ambient.shape[0])
