@@ -39,7 +39,7 @@ from ..tables.lookup import Luts
 # 2: single Mie scattering apart, ground-ray scale, spectral params.
 LAYOUT_VERSION = 2
 # Bump when the baker's numerics change (the same params then give different tables).
-BAKER_VERSION = 5   # 5: exponential optical-depth segments, columns below the first row
+BAKER_VERSION = 6   # 5: exponential optical-depth segments, columns below the first row; 6: the orders' geometric tail
 
 FILES = {
     "single": "single_scattering.exr",

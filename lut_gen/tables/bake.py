@@ -498,6 +498,18 @@ def _integrate_order(params, media: Media, dims_j, j_table, progress: Progress, 
     return out
 
 
+TAIL_MAX_RATIO = 0.8        # an order at most this share of the one before in the tail's series
+TAIL_FLOOR = 1e-30
+
+
+def geometric_tail(before: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """The orders after ``last`` as a geometric series of its ratio to ``before`` (the order
+    before it), per element: last r / (1 - r), r = last / before clamped to [0, TAIL_MAX_RATIO]."""
+    ratio = np.clip(last / np.maximum(before, TAIL_FLOOR), 0.0, TAIL_MAX_RATIO)
+    ratio = np.where(before > TAIL_FLOOR, ratio, 0.0)
+    return (np.maximum(last, 0.0) * ratio / (1.0 - ratio)).astype(np.float32)
+
+
 def grid_to_grid_matrices(params, src_dims, dst_dims):
     """Separable linear resampling matrices from one table grid to another (same
     parameterisation, so each destination node has a fixed coordinate on each source axis)."""
@@ -516,12 +528,19 @@ def grid_to_grid_matrices(params, src_dims, dst_dims):
 
 def bake_higher_orders(params: AtmosphereParams, media: Media, dims, single_rayleigh: np.ndarray,
                        single_mie: np.ndarray, orders: int, progress: Progress,
-                       optical_depth: np.ndarray, single_media: Optional[Media] = None
+                       optical_depth: np.ndarray, single_media: Optional[Media] = None, tail: bool = True
                        ) -> Tuple[np.ndarray, list]:
     """Sum of orders 2..N divided by the Rayleigh phase and the ground-ray scale, in RGB, from
     single scattering without phases at the wavelengths of ``single_media`` (default: ``media``);
     the orders themselves are integrated at the (fewer) wavelengths of ``media``: they are smooth
-    in wavelength. Per-order timings."""
+    in wavelength. Per-order timings.
+
+    ``tail`` (N >= 3): the orders after N as a geometric series, order N x r / (1 - r) with r the
+    ratio of order N to order N - 1 per texel and wavelength (at most TAIL_MAX_RATIO). Each order
+    of the clear sky is about half the one before wherever multiple scattering matters (the
+    ground's light feeds every order), so four orders alone left up to 25% of the sky out (the
+    horizon from the ground, the air 1-3 km up: a median 11% there); with the tail the four
+    orders are within 3% (p99 over the draft table) of fifteen orders, five within 2% (max)."""
     dims_j = higher_order_dims(dims)
     to_order_grid = grid_to_grid_matrices(params, dims, dims_j) + [None]
     spectral = spectral_resample_matrix(single_media or media, media).T.astype(np.float32)
@@ -543,9 +562,12 @@ def bake_higher_orders(params: AtmosphereParams, media: Media, dims, single_rayl
                                       None if ground is None else (ground, irradiance))
         if ground is not None and order < orders:
             irradiance = ground.sky_irradiance(prev, prev_mie)
+        before = prev if prev_mie is None else None
         prev, prev_mie = _integrate_order(params, media, dims_j, j_table, progress, f"scattering order {order}"), None
         total += prev
         timings.append((f"order {order}", time.perf_counter() - t0))
+    if tail and orders >= 3:
+        total += geometric_tail(before, prev)
     # Colour conversion first: it commutes with the resampling and leaves 3 channels, not C.
     # The ground-ray scale is divided out before resampling across heights (see geometry).
     total_rgb = np.maximum(total @ media.to_rgb.T.astype(np.float32), 0.0) / par.grid_scale(params, dims_j)
@@ -563,12 +585,13 @@ def bake_ambient(luts: Luts, n: int) -> np.ndarray:
 # -- driver --------------------------------------------------------------------------------
 
 def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", orders: int = 4,
-         progress: Optional[Progress] = None) -> Luts:
+         progress: Optional[Progress] = None, tail: bool = True) -> Luts:
     """Bake every table for ``params`` (default: the clear-sky preset).
 
     ``resolution``: "default" (32 x 128 x 64 x 16), "draft" (half every dimension) or a tuple of
-    the four 4D sizes. ``orders``: scattering orders summed into the multiple table (>= 1).
-    ``progress(stage, fraction)`` is called as stages advance.
+    the four 4D sizes. ``orders``: scattering orders integrated into the multiple table (>= 1);
+    ``tail``: the orders after them added as a geometric series (bake_higher_orders; needs
+    orders >= 3). ``progress(stage, fraction)`` is called as stages advance.
     """
     params = (params or AtmosphereParams()).validate()
     res = resolve_resolution(resolution)
@@ -590,7 +613,7 @@ def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", ord
     if orders >= 2:
         higher, order_times = bake_higher_orders(params, bake_media(params, "higher"), res.scattering,
                                                  single_rayleigh, single_mie, orders, report, optical_depth,
-                                                 single_media=media)
+                                                 single_media=media, tail=tail)
         timings.update(order_times)
     else:
         higher = np.zeros(res.scattering + (3,), np.float32)
@@ -607,7 +630,7 @@ def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", ord
 
     t0 = time.perf_counter()
     luts = Luts(params, single, higher, optical_depth, np.zeros((res.ambient, 3), np.float32),
-                single_mie=single_mie, orders=int(orders), timings=timings)
+                single_mie=single_mie, orders=int(orders), timings=timings, tail=bool(tail and orders >= 3))
     luts.ambient = bake_ambient(luts, res.ambient)
     timings["ambient skylight"] = time.perf_counter() - t0
     report("ambient skylight", 1.0)

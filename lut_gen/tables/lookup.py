@@ -65,6 +65,7 @@ class Luts:
     optical_depth: np.ndarray
     ambient: np.ndarray
     orders: int = 4
+    tail: bool = True           # the orders after ``orders`` added as a geometric series (bake.geometric_tail)
     multiple: Optional[np.ndarray] = None
     timings: dict = field(default_factory=dict)
     single_mie: Optional[np.ndarray] = None
