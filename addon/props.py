@@ -12,11 +12,12 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProp
 
 from ..lut_gen.clouds.layer import RANGES as CLOUD_RANGES
 from ..lut_gen.clouds.presets import CLOUD_PRESETS
+from ..lut_gen.model.air_presets import AIR_PRESETS, preset_density
 from ..lut_gen.model.atmosphere import DEFAULT_GROUND_ALBEDO
 from . import baking
 from .scene import clouds, names
 from .scene.setup import compositor
-from .settings import DEFAULT_MIE_COLOR, DEFAULT_RAYLEIGH_COLOR, WITHOUT_EFFECT
+from .settings import DEFAULT_MIE_COLOR, DEFAULT_RAYLEIGH_COLOR, WITHOUT_EFFECT, atmosphere_params
 
 REBAKE_DELAY_S = 0.75     # wait for a slider drag to settle before re-baking
 
@@ -48,6 +49,13 @@ def _sync_clouds(settings, context):
     if context.scene is not None:
         clouds.sync(context.scene)
         compositor.sync_settings(context.scene)
+
+
+def _apply_air_preset(settings, context):
+    key = settings.air_preset.lower().replace("_", "-")
+    if key in AIR_PRESETS:
+        # Its own update re-bakes the tables.
+        settings.aerosol_density = preset_density(key, atmosphere_params(settings))
 
 
 def _apply_cloud_preset(settings, context):
@@ -363,6 +371,16 @@ class OLSSettings(bpy.types.PropertyGroup):
                     "scattering x (1 + absorption) (the tables are re-baked)",
         default=0.1, min=0.0, max=5.0,
         update=_rebake_soon,
+    )
+    air_preset: EnumProperty(
+        name="Air Preset",
+        description="Set the aerosol density for a common day's haze, by its aerosol optical depth at 550 nm "
+                    "(the clear sky's is 0.11; the control stays editable; the tables are re-baked)",
+        items=(("CUSTOM", "Custom", "The aerosol density as set"),
+               *((key.upper().replace("-", "_"), key.replace("-", " ").capitalize(),
+                  f"Aerosol optical depth {depth:g} at 550 nm") for key, depth in AIR_PRESETS.items())),
+        default="CUSTOM",
+        update=_apply_air_preset,
     )
     atmosphere_preset: EnumProperty(
         name="Atmosphere",

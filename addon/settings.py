@@ -50,6 +50,7 @@ PROPERTIES_BY_SET = {
         "use_custom_scattering_coeffs",
         "rayleigh_color",
         "mie_color",
+        "air_preset",
         "aerosol_density",
         "aerosol_absorption",
         "atmosphere_preset",

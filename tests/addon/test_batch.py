@@ -402,3 +402,23 @@ def test_gallery_preset_is_a_real_landscape(batch, tmp_path):
     assert sky.mean() > ground.mean() + 0.1                         # a bright sky over darker land
     assert ground.mean() > 0.05                                     # the terrain is lit, not black
     assert sky[..., 2].mean() > sky[..., 0].mean() * 0.8            # no colour cast gone wild
+
+
+def test_air_presets_set_the_haze_from_the_panel_and_the_command_line(batch, addon_package):
+    """An air preset sets the aerosol density for its aerosol optical depth at 550 nm
+    (lut_gen.model.air_presets), from the panel's Air Preset and from --preset; the looks'
+    presets leave it."""
+    air = addon_package.lut_gen.model.air_presets
+    settings = extension_module("addon.settings")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.collection.objects.link(bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN")))
+    scene.ols.air_preset = "HAZY_SUMMER_DAY"
+    assert abs(air.aerosol_optical_depth(settings.atmosphere_params(scene.ols)) - 0.3) < 1e-4
+    scene.ols.air_preset = "CLEAN_MOUNTAIN_AIR"
+    assert abs(air.aerosol_optical_depth(settings.atmosphere_params(scene.ols)) - 0.03) < 1e-4
+    scene.ols.aerosol_density = 1.0
+    batch.apply_options(scene, batch.parse_args(["--preset", "hazy-summer-day", "--output", "x.png"]))
+    assert abs(air.aerosol_optical_depth(settings.atmosphere_params(scene.ols)) - 0.3) < 1e-4
+    batch.apply_options(scene, batch.parse_args(["--preset", "noon", "--output", "x.png"]))
+    assert abs(scene.ols.aerosol_density - 2.7273) < 1e-3
