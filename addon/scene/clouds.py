@@ -87,7 +87,11 @@ def drive_sky_inputs(group, scene):
     keyframed controls (the offset, for wind) then animate the clouds in every render, farm
     chunks included."""
     drivers.drive_switch(group.inputs["Clouds"], scene, "clouds_enabled")
-    drivers.drive_switch(group.inputs["Light Shafts"], scene, "enable_light_shafts")
+    # The shafts pass runs (and redoes the air's single scattering) only with light scattering on.
+    drivers.drive_expression(group.inputs["Light Shafts"], "default_value", None,
+                             {"scattering": (scene, "SCENE", "ols.enable_light_scattering"),
+                              "shafts": (scene, "SCENE", "ols.enable_light_shafts")},
+                             "1.0 if scattering and shafts else 0.0")
     for axis in range(2):
         drivers.drive_camera_axis(group.inputs["Camera XY"], axis, scene)
     _drive_cloud_controls(group, scene, "Cloud ")

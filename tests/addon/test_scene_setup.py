@@ -49,6 +49,13 @@ def test_setup_scene_on_the_sample(addon, tmp_path):
     assert np.array(objects["sun"].data.color)[2] > colour[2] * 1.5
     sky = scene.world.node_tree.nodes["OLS Sky"]
     assert sky.inputs["Sun Direction"].default_value[2] == pytest.approx(math.sin(math.radians(60.0)), abs=1e-4)
+    # The sky leaves the air's single scattering under the clouds to the shafts pass only while
+    # that pass runs: light scattering and light shafts both on.
+    for scattering, shafts, want in ((True, True, 1.0), (False, True, 0.0), (True, False, 0.0)):
+        scene.ols.enable_light_scattering, scene.ols.enable_light_shafts = scattering, shafts
+        bpy.context.view_layer.update()
+        assert sky.inputs["Light Shafts"].default_value == want, (scattering, shafts)
+    scene.ols.enable_light_scattering = scene.ols.enable_light_shafts = True
 
     scene.render.resolution_x, scene.render.resolution_y = 96, 54
     scene.cycles.samples = 8
