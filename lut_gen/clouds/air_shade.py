@@ -19,6 +19,10 @@ The mean is over the map's columns, so a coverage-0 layer changes nothing and a 
 shades the air everywhere; where one gap or one cloud falls is the light shafts' business
 (shafts.py), which march the cloud's shadow step by step.
 
+Seen from above the layer the air is sunlit as the tables have it, but over the bright deck, not
+over the ground of the atmosphere's albedo: it scatters the deck's light beyond the ground's
+(top_light.deck_light), a negative ``Shade.rest``.
+
 The result is what the world must take off: ``Shade.single`` (the single-scattering part within
 the light shafts' reach, SHAFT_RANGE) and ``Shade.rest`` (all the rest, less the clouds' glow).
 With light shafts on, camera rays take off ``rest`` only: the shafts pass replaces the air's
