@@ -59,9 +59,7 @@ def sun_through(layer: CloudLayer, cos_sun: float) -> float:
     if cos_sun <= 0:
         return 1.0
     full = layer.density * layer.thickness
-    fractions, weights = field.fraction_nodes(layer.coverage)
-    clear = 1.0 - weights.sum()
-    return float(clear + np.sum(weights * np.exp(-full * fractions / max(cos_sun, slab.MIN_COS))))
+    return float(field.column_mean(layer.coverage, lambda f: np.exp(-full * f / max(cos_sun, slab.MIN_COS))))
 
 
 @dataclass
@@ -189,8 +187,9 @@ def _front(luts, camera, cloud, directions, sun, transmittance, table):
     """S - T S_P of one table: the air's light in front of the cloud, as sky.composite has it."""
     cos_sun_view = directions @ sun
     at_camera = luts.sky_radiance(camera[2], directions[:, 2], sun[2], cos_sun_view, table=table)
-    radius = np.linalg.norm(cloud + np.array([0.0, 0.0, luts.params.earth_radius]), axis=-1)
-    up = (cloud + np.array([0.0, 0.0, luts.params.earth_radius])) / radius[:, None]
+    from_centre = cloud + np.array([0.0, 0.0, luts.params.earth_radius])
+    radius = np.linalg.norm(from_centre, axis=-1)
+    up = from_centre / radius[:, None]
     at_cloud = luts.sky_radiance(radius - luts.params.earth_radius, np.clip((directions * up).sum(-1), -1, 1),
                                  np.clip(up @ sun, -1, 1), cos_sun_view, table=table)
     return np.maximum(at_camera - transmittance * at_cloud, 0.0)

@@ -110,19 +110,21 @@ def sample(cloud, u, v):
 
 
 def fraction_nodes(coverage: float, band_nodes: int = 8):
-    """(fractions, weights): a quadrature of the map's columns' thickness fractions. The map's
-    ranks are uniform on [0, 1] and the fraction is a clamped ramp of the rank
-    (thickness_fraction): none below the threshold, full above it plus SOFTNESS, linear
-    between, so the band's midpoints and the full column integrate any function of it."""
+    """(fractions, weights): a quadrature of the map's columns' thickness fractions, weights
+    summing to 1. The map's ranks are uniform on [0, 1] and the fraction is a clamped ramp of
+    the rank (thickness_fraction): none below the threshold, full above it plus SOFTNESS,
+    linear between, so the clear columns, the band's midpoints and the full column integrate
+    any function of it."""
     cut = float(threshold(coverage))
     low, high = min(max(cut, 0.0), 1.0), min(max(cut + SOFTNESS, 0.0), 1.0)
     ranks = low + (np.arange(band_nodes) + 0.5) / band_nodes * (high - low)
-    fractions = np.append(thickness_fraction(ranks, coverage), 1.0)
-    weights = np.append(np.full(band_nodes, (high - low) / band_nodes), 1.0 - high)
+    fractions = np.concatenate([[0.0], thickness_fraction(ranks, coverage), [1.0]])
+    weights = np.concatenate([[low], np.full(band_nodes, (high - low) / band_nodes), [1.0 - high]])
     return fractions, weights
 
 
-def column_mean(coverage: float, function):
-    """The mean of ``function(thickness fraction)`` (a column's zero counted) over the map."""
-    fractions, weights = fraction_nodes(coverage)
-    return sum(w * function(f) for f, w in zip(fractions, weights))
+def column_mean(coverage: float, function, band_nodes: int = 8):
+    """The mean of ``function(thickness fraction)`` over the map's columns (fraction_nodes);
+    nodes of no weight are not evaluated."""
+    fractions, weights = fraction_nodes(coverage, band_nodes)
+    return sum(w * function(f) for f, w in zip(fractions, weights) if w > 0)

@@ -84,9 +84,9 @@ def _air_terms(luts: Luts, layer: CloudLayer, height, rays, at: _Geometry, sun) 
     ambient_colour = top_light.skylight(luts, layer, cos_sun) / np.pi
     glow = air_shade.glow_sources(luts, layer, float(sun[2]))
     # The mean column's light feeds the aerosol's forward glow only: four nodes in the edge band.
-    fractions, weights = field.fraction_nodes(layer.coverage, band_nodes=4)
-    mean_light = sum(w * _column_light(layer.density * layer.thickness * f, at, sun_colour, ambient_colour, glow.ground)
-                     for f, w in zip(fractions, weights) if w > 0)
+    mean_light = field.column_mean(
+        layer.coverage, lambda f: _column_light(layer.density * layer.thickness * f, at, sun_colour, ambient_colour,
+                                                glow.ground), band_nodes=4)
     distance = np.linalg.norm(at.point - np.array([0.0, 0.0, height]), axis=-1)
     shade = air_shade.shade(luts, layer, height, rays, distance, air, sun, SHAFT_RANGE, glow, mean_light)
     return AirTerms(air * sun_colour, air * ambient_colour,

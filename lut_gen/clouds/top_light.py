@@ -51,8 +51,8 @@ def deck_light(luts: Luts, layer: CloudLayer, cos_sun: float) -> DeckLight:
 
 def _top_fluxes(luts: Luts, layer: CloudLayer, cos_sun):
     """((n, 3), (n, 3)): the deck's upward flux and the sun's and sky's flux on its top."""
-    sky = _over_deck(luts, layer, cos_sun)
-    sun, r_sun, r_sky, _ = _deck(luts, layer, cos_sun)
+    sun, r_sun, r_sky, table_sky = _deck(luts, layer, cos_sun)
+    sky = _with_deck_gain(luts.params, layer, sun, r_sun, r_sky, table_sky)
     return r_sun[:, None] * sun + r_sky[:, None] * sky, sun + sky
 
 
@@ -76,9 +76,13 @@ def _deck(luts: Luts, layer: CloudLayer, cos_sun):
 def _over_deck(luts: Luts, layer: CloudLayer, cos_sun) -> np.ndarray:
     """(n, 3) the table's sky irradiance at the top, with what the deck sends back up and the
     air above returns (the module docstring)."""
-    params = luts.params
+    return _with_deck_gain(luts.params, layer, *_deck(luts, layer, cos_sun))
+
+
+def _with_deck_gain(params, layer: CloudLayer, sun, r_sun, r_sky, sky) -> np.ndarray:
+    """The table's sky irradiance ``sky`` at the top plus what the air above returns of the
+    deck's light (_deck's terms)."""
     top = layer.base + layer.thickness
-    sun, r_sun, r_sky, sky = _deck(luts, layer, cos_sun)
     above = np.array([params.rayleigh_scale_height * np.exp(-top / params.rayleigh_scale_height),
                       params.mie_scale_height * np.exp(-top / params.mie_scale_height)])
     x = 0.75 * (above[0] * params.rayleigh + (1.0 - params.mie_g) * above[1] * params.mie)
