@@ -18,10 +18,11 @@ the direct sun where the layer lets it through. Errors are relative, RGB norms
 (|model - MC| / |MC|); ``pytest -s`` prints every geometry with the tracer's standard error.
 
 Where the model holds and where it does not (measured with the seeds and path counts below; MC
-standard errors 1-7%, largest from below a thick layer under a low sun): 43 of the 54 geometries
-are within the bar, KNOWN_MODEL_ERRORS lists the other 11 with their numbers.
-test_within_the_bar_where_the_model_holds asserts the bar on the 43;
-test_the_known_model_errors_do_not_grow holds the other 11 at their measured error or better,
+standard errors 1-7%, largest from below a thick layer under a low sun, with the default tables'
+geometric tail of orders): 44 of the 54 geometries are within the bar, KNOWN_MODEL_ERRORS lists
+the other 10 with their numbers (as measured before the tail; up to 0.29 with it).
+test_within_the_bar_where_the_model_holds asserts the bar on the 44;
+test_the_known_model_errors_do_not_grow holds the other 10 at their measured error or better,
 until the model is fixed.
 
 What was fixed (2026-12-03, fourth session; 15 of 54 were within the bar before, the worst 20x):
@@ -40,10 +41,10 @@ What was fixed (2026-12-03, fourth session; 15 of 54 were within the bar before,
    deck's (air_shade.py from above): looking down 20 deg toward a sun at 20 deg 0.89x -> within.
 
 What is still wrong, by the tracer's numbers:
-- Looking up 20 deg under a sun 5 deg high: 1.26-1.30x (both layers), and the thin layer toward
+- Looking up 20 deg under a sun 5 deg high: 1.29-1.35x (both layers), and the thin layer toward
   it 1.12x: the air's light under the deck (the clouds' glow scattered by the long, hazy path)
   is over.
-- Looking down 20 deg on the deck under a sun 5 deg high: 0.85-0.88x.
+- Looking down 20 deg on the deck under a sun 5 deg high: 0.84-0.88x.
 - The thin layer (optical depth 2.5) seen from below away from the sun: 1.13-1.16x. The
   slab's own light there is 1.05-1.16x the slab tracer's (no air), the rest is the light of the
   ground and the sky let through.
@@ -85,12 +86,11 @@ PATHS_BELOW_THICK = 16384
 HEMISPHERE_ZENITHS, HEMISPHERE_AZIMUTHS = 48, 96
 
 # Geometries over the bar at these seeds and path counts, 11 of 54 (the module docstring says
-# why): name: (RGB error, model / MC in green, MC standard error, relative). The 43 within the
+# why): name: (RGB error, model / MC in green, MC standard error, relative). The 44 within the
 # bar include every global irradiance and every view at sun 60 but one; those near 0.10 are so
 # within the tracer's noise (standard errors 2-6% there): they hold at these seeds, not by a
 # margin.
 KNOWN_MODEL_ERRORS = {
-    "tau 20, below, up 60, sun 5 toward": (0.103, 0.93, 0.053),
     "tau 20, below, up 20, sun 20 away": (0.133, 1.14, 0.050),
     "tau 20, below, up 20, sun 5 toward": (0.273, 1.29, 0.060),
     "tau 20, below, up 20, sun 5 away": (0.259, 1.29, 0.069),
@@ -262,7 +262,7 @@ def test_light_shafts_take_the_clouds_shadow_out_of_the_air(luts, comparison):
     sun step by step (lut_gen.clouds.shafts): under a uniform layer, world + shafts against the
     tracer must come to what the world alone gives with the mean shade (air_shade.py). Measured:
     world + shafts equals the world-alone error within 0.001 on every geometry from below
-    (0.01-0.27); the world's camera rays alone (before the pass) are up to 17x off
+    (0.003-0.30); the world's camera rays alone (before the pass) are up to 17x off
     toward a low sun, as the whole world was before air_shade."""
     ranks = field.cloud_map(0, 32)
     improved = {}
