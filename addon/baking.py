@@ -3,6 +3,13 @@ wired scene. Operators, handlers, batch renders, benches and tests all bake thro
 
 ``BackgroundBake`` runs a bake on a worker thread so that Blender stays responsive; its state is
 read by the Bake Tables operator's modal timer on the main thread (bpy is touched only there).
+
+The preview: a default bake takes 20-25 s on two cores, the draft (half every axis) about 2.5 s.
+A background bake of tables that are not cached bakes the draft first; the operator shows it
+(``show``, preview=True) and swaps the full tables in when they are done. A scene showing a
+preview says so (names.PREVIEW_KEY): the panel, F12 (which waits), the Render operator and a
+file opened later (which re-bakes) all read it. A newer bake supersedes an older one: the older
+stops at its next progress report and never swaps in (``latest``).
 """
 from __future__ import annotations
 
@@ -16,6 +23,7 @@ from .. import lut_gen
 from .scene import names
 from .scene.setup import wiring
 from .scene.tables import luts
+from .settings import atmosphere_params
 
 
 def bake_directory(params, resolution="default") -> Path:
@@ -33,38 +41,129 @@ def is_baked(params, resolution) -> bool:
     return lut_gen.store.exr_io.is_intact(directory, directory.name)
 
 
-def swap_in(scene, directory):
-    """Point an already wired scene at another bake (after a re-bake): rebuild the groups."""
+def swap_in(scene, directory, preview: bool = False):
+    """Point an already wired scene at another bake (after a re-bake): rebuild the groups.
+    ``preview``: the bake stands in for the tables being baked (draft preview)."""
     wiring.build_groups(directory, scene.render.engine)
     scene[names.WIRED_KEY] = lut_gen.store.exr_io.verify_bake(directory)   # verified by build_groups: cached
+    mark_preview(scene, preview)
     wiring.refresh(scene, force=True)
     luts.release_unused_images()
 
 
+def settle(scene) -> bool:
+    """Before a render: a scene showing the draft preview gets the tables it asked for now
+    (waiting for the running bake, or baking them), so that no frame renders with the draft.
+    True when it swapped tables in."""
+    if not showing_preview(scene):
+        return False
+    running = latest()
+    if running is not None:
+        running.wait()
+    params = atmosphere_params(scene.ols).validate()
+    swap_in(scene, bake_if_needed(params, scene.get(names.RESOLUTION_KEY, "default")))
+    return True
+
+
+def mark_preview(scene, preview: bool):
+    if preview:
+        scene[names.PREVIEW_KEY] = True
+    elif names.PREVIEW_KEY in scene:
+        del scene[names.PREVIEW_KEY]
+
+
+def showing_preview(scene) -> bool:
+    """True while a wired scene shows the draft preview of tables still baking."""
+    return scene is not None and bool(scene.get(names.PREVIEW_KEY))
+
+
+PREVIEW_RESOLUTION = "draft"
+
+
+class BakeSuperseded(Exception):
+    """Raised inside a bake's progress report once a newer bake has started."""
+
+
+# Share of a previewed bake's progress bar that the draft takes (its share of the time).
+PREVIEW_SHARE = 0.1
+
+
 class BackgroundBake:
     """One bake on a worker thread: ``stage`` and ``fraction`` follow its progress, ``done``
-    turns true at the end, ``error`` then says why it failed (None when it did not)."""
+    turns true at the end, ``error`` then says why it failed (None when it did not).
 
-    def __init__(self, params, resolution):
+    ``preview``: when these tables are not cached yet, bake the draft first; ``preview_ready``
+    turns true when it is (``preview_directory``). The newest BackgroundBake is ``latest()``;
+    an older one stops (``superseded``) at its next progress report."""
+
+    def __init__(self, params, resolution, preview: bool = False):
+        global _latest
         self.params, self.resolution = params, resolution
         self.stage, self.fraction, self.error, self.done = "starting", 0.0, None, False
+        self.superseded = False
+        wants_preview = preview and resolution != PREVIEW_RESOLUTION and not is_baked(params, resolution)
+        self.preview_resolution = PREVIEW_RESOLUTION if wants_preview else None
+        self.preview_ready = False
+        self.render_after = None        # "STILL" or "ANIMATION": F12 pressed while baking
+        if _latest is not None and not _latest.done:
+            _latest.superseded = True
+            self.render_after = _latest.render_after
+        _latest = self
         self._thread = threading.Thread(target=self._work, daemon=True)
         self._thread.start()
 
-    def _progress(self, stage, fraction):
-        self.stage, self.fraction = stage, fraction
+    def _report(self, stage, fraction, start, share):
+        if self.superseded:
+            raise BakeSuperseded()
+        self.stage, self.fraction = stage, start + share * fraction
 
     def _work(self):
         try:
-            bake_if_needed(self.params, self.resolution, progress=self._progress)
+            full_start = 0.0
+            if self.preview_resolution:
+                bake_if_needed(self.params, self.preview_resolution,
+                               progress=lambda stage, f: self._report(f"draft preview, {stage}", f, 0.0, PREVIEW_SHARE))
+                self.preview_ready = True
+                full_start = PREVIEW_SHARE
+            bake_if_needed(self.params, self.resolution,
+                           progress=lambda stage, f: self._report(stage, f, full_start, 1.0 - full_start))
+        except BakeSuperseded:
+            self.superseded = True
         except Exception as exc:        # reported on the main thread by whoever polls
             self.error = f"{exc}"
             traceback.print_exc()
         self.done = True
 
+    def wait(self, timeout=None) -> bool:
+        """Block until the worker ends (True) or ``timeout`` seconds pass (False)."""
+        self._thread.join(timeout)
+        return self.done
+
     @property
     def directory(self) -> Path:
         return bake_directory(self.params, self.resolution)
+
+    @property
+    def preview_directory(self) -> Path:
+        return bake_directory(self.params, self.preview_resolution)
+
+
+_latest = None
+
+
+def latest():
+    """The newest BackgroundBake still running, or None."""
+    return _latest if _latest is not None and not _latest.done else None
+
+
+def progress_line(bake) -> str:
+    """The status bar's and the panel's line for a running bake."""
+    line = f"Baking atmosphere tables: {bake.stage} {bake.fraction * 100:.0f}%"
+    if bake.preview_ready:
+        line += " (showing the draft preview)"
+    if bake.render_after:
+        line += "; the render starts when they are done"
+    return line
 
 
 def invoke_bake_in_window(resolution="default"):

@@ -116,6 +116,11 @@ def on_render_init(scene=None, *_args):
     problem = wired_bake.table_problem(scene)
     if problem is not None:
         _refuse_damaged_tables(scene, problem)
+    if baking.showing_preview(scene):
+        # F12 waits for the bake (the Bake Tables operator holds it back) and the Render
+        # operator settles first; a render started from the menu meanwhile cannot be stopped.
+        print(f"Outdoor Light Scattering: scene {scene.name!r}: this render uses the draft preview tables; "
+              "the full ones are still baking (F12 or Render wait for them)")
     adaptation.begin_render(scene, adaptation_plan.for_render(scene))
 
 
@@ -156,9 +161,12 @@ def on_file_loaded(*_args):
     for scene in bpy.data.scenes:
         key = scene.get(names.WIRED_KEY)
         problem = wired_bake.table_problem(scene)
-        if problem is None:             # not wired, or its tables verify
+        saved_in_preview = problem is None and baking.showing_preview(scene)
+        if saved_in_preview:
+            problem = "it was saved showing the draft preview of tables that were still baking"
+        elif problem is None:           # not wired, or its tables verify
             continue
-        if packed_tables.is_packed(key):
+        if packed_tables.is_packed(key) and not saved_in_preview:
             try:
                 directory = packed_tables.restore(key)
                 print(f"Outdoor Light Scattering: scene {scene.name!r}: using the tables packed in the file "

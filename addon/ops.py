@@ -34,14 +34,23 @@ class OLS_OT_bake_luts(bpy.types.Operator):
 
     resolution: EnumProperty(name="Resolution", items=RESOLUTION_ITEMS, default="default")
     setup_after: BoolProperty(name="Set Up Scene After", default=False, options={"HIDDEN", "SKIP_SAVE"})
+    preview: BoolProperty(name="Preview While Baking", default=True, options={"SKIP_SAVE"},
+                          description="In the UI, show the draft tables (a few seconds) while the full ones bake")
+
+    def _show(self, context, directory, preview=False):
+        """Wire the scene to ``directory`` (Set Up Scene after a bake) or swap it in."""
+        scene = context.scene
+        if not preview and scene.get(names.WIRED_KEY) == directory.name and not baking.showing_preview(scene):
+            return                      # already there (a render settled it while the bake ran)
+        if self.setup_after and not scene.get(names.WIRED_KEY):
+            wiring.wire_scene(scene, directory, terrain_candidates(context), resolution=self.resolution)
+            baking.mark_preview(scene, preview)
+        elif scene.get(names.WIRED_KEY):
+            baking.swap_in(scene, directory, preview=preview)
 
     def _finish(self, context, directory):
-        scene = context.scene
         try:
-            if self.setup_after:
-                wiring.wire_scene(scene, directory, terrain_candidates(context), resolution=self.resolution)
-            elif scene.get(names.WIRED_KEY):
-                baking.swap_in(scene, directory)
+            self._show(context, directory)
         except (wiring.SetupError, lut_gen.LutError, OSError, RuntimeError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
@@ -68,7 +77,8 @@ class OLS_OT_bake_luts(bpy.types.Operator):
         return self._finish(context, directory)
 
     def invoke(self, context, event):
-        """In the UI: bake on a worker thread, keep Blender responsive, swap in when done."""
+        """In the UI: bake on a worker thread, keep Blender responsive, show the draft preview
+        when it is ready and swap the full tables in when done."""
         try:
             self._params = atmosphere_params(context.scene.ols).validate()
         except ValueError as exc:
@@ -76,7 +86,8 @@ class OLS_OT_bake_luts(bpy.types.Operator):
             return {"CANCELLED"}
         if baking.is_baked(self._params, self.resolution):
             return self._finish(context, baking.bake_directory(self._params, self.resolution))
-        self._bake = baking.BackgroundBake(self._params, self.resolution)
+        self._bake = baking.BackgroundBake(self._params, self.resolution, preview=self.preview)
+        self._preview_shown = False
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.2, window=context.window)
         wm.progress_begin(0, 100)
@@ -84,21 +95,46 @@ class OLS_OT_bake_luts(bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
     def modal(self, context, event):
+        bake = self._bake
+        if event.type == "F12" and event.value == "PRESS" and not bake.done:
+            # F12 renders the tables asked for, never the preview or the old ones: it waits.
+            bake.render_after = "ANIMATION" if event.ctrl else "STILL"
+            self.report({"INFO"}, "The render starts when the atmosphere tables are baked")
+            return {"RUNNING_MODAL"}
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         wm = context.window_manager
-        bake = self._bake
+        if bake.preview_ready and not self._preview_shown and not bake.superseded:
+            self._preview_shown = True
+            try:
+                self._show(context, bake.preview_directory, preview=True)
+            except (wiring.SetupError, lut_gen.LutError, OSError, RuntimeError) as exc:
+                self.report({"WARNING"}, f"The draft preview cannot be shown ({exc}); the full tables are still baking")
         wm.progress_update(int(bake.fraction * 100))
-        context.workspace.status_text_set(f"Baking atmosphere tables: {bake.stage} {bake.fraction * 100:.0f}%")
+        context.workspace.status_text_set(baking.progress_line(bake))
+        _redraw_sidebars(context)
         if not bake.done:
             return {"RUNNING_MODAL"}
         wm.event_timer_remove(self._timer)
         wm.progress_end()
         context.workspace.status_text_set(None)
+        _redraw_sidebars(context)
+        if bake.superseded:             # a newer bake (a later slider change) swaps in instead
+            return {"CANCELLED"}
         if bake.error:
             self.report({"ERROR"}, f"Baking failed: {bake.error}")
             return {"CANCELLED"}
-        return self._finish(context, bake.directory)
+        result = self._finish(context, bake.directory)
+        if result == {"FINISHED"} and bake.render_after:
+            bpy.ops.render.render("INVOKE_DEFAULT", animation=bake.render_after == "ANIMATION")
+        return result
+
+
+def _redraw_sidebars(context):
+    screen = getattr(context, "screen", None)
+    for area in (screen.areas if screen is not None else ()):
+        if area.type == "VIEW_3D":
+            area.tag_redraw()
 
 
 class OLS_OT_setup_scene(bpy.types.Operator):
@@ -167,6 +203,11 @@ class OLS_OT_render(bpy.types.Operator):
         problem = wired_bake.table_problem(scene)
         if problem is not None:
             self.report({"ERROR"}, f"Not rendering: {problem}")
+            return {"CANCELLED"}
+        try:
+            baking.settle(scene)        # the tables asked for, not the draft preview
+        except (lut_gen.LutError, OSError, ValueError, RuntimeError) as exc:
+            self.report({"ERROR"}, f"Not rendering: the atmosphere tables cannot be baked: {exc}")
             return {"CANCELLED"}
         try:
             path = render_path(self.filepath)

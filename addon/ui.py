@@ -3,6 +3,7 @@ import textwrap
 
 import bpy
 
+from . import baking
 from .scene.tables import wired_bake
 from .settings import PROPERTIES_BY_SET, WITHOUT_EFFECT
 
@@ -98,6 +99,21 @@ def draw_table_problem(layout, scene):
     box.label(text="Bake Tables repairs them before the next render")
 
 
+def draw_bake_progress(layout, scene):
+    """A bake running in the background: its stage and progress, and whether the scene shows the
+    draft preview meanwhile."""
+    bake = baking.latest()
+    if bake is None:
+        return
+    box = layout.box()
+    box.label(text=f"Baking tables: {bake.stage}", icon='SORTTIME')
+    box.progress(factor=bake.fraction, text=f"{bake.fraction * 100:.0f}%")
+    if baking.showing_preview(scene):
+        box.label(text="Showing the draft preview until they are done")
+    if bake.render_after:
+        box.label(text="The render starts when they are done")
+
+
 class OLS_PT_atmosphere(bpy.types.Panel):
     """Outdoor Light Scattering: the sample's controls"""
 
@@ -115,6 +131,7 @@ class OLS_PT_atmosphere(bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         draw_table_problem(layout, context.scene)
+        draw_bake_progress(layout, context.scene)
         draw_settings(layout, context.scene.ols)
         layout.separator()
         draw_operators(layout)

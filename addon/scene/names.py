@@ -9,6 +9,7 @@ say so in CHANGELOG.md.
 # -- custom properties on the scene --------------------------------------------------------
 WIRED_KEY = "ols_bake_key"                        # the bake key of the tables the scene is wired to
 RESOLUTION_KEY = "ols_table_resolution"           # "default" or "draft", what Set Up Scene baked
+PREVIEW_KEY = "ols_showing_preview"               # wired to the draft preview of tables still baking
 PREVIOUS_WORLD = "ols_previous_world"             # the world Set Up Scene replaced (restored on unwire)
 PREVIOUS_PASSES = "ols_previous_passes"           # the render passes before we turned ours on
 CREATED_TREE = "ols_created_compositor"           # the compositor tree is ours (removed on unwire)

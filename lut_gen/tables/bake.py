@@ -83,8 +83,14 @@ def _parallel_rows(function, count: int, progress: Progress, stage: str):
     loops), reporting progress in completion order."""
     workers = max(1, min(os.cpu_count() or 1, 8))
     with ThreadPoolExecutor(workers) as pool:
-        for done, _ in enumerate(pool.map(function, range(count)), 1):
-            progress(stage, done / count)
+        try:
+            for done, _ in enumerate(pool.map(function, range(count)), 1):
+                progress(stage, done / count)
+        except BaseException:
+            # A progress callback may stop the bake (a newer bake superseded it): drop the
+            # rows not started rather than finishing the stage.
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
 
 
 # Work items stay below ~32 MB per temporary array: larger ones are mmapped afresh by malloc

@@ -1,0 +1,118 @@
+"""The draft preview while tables bake (addon/baking.py): a changed atmosphere shows the draft
+tables as soon as they are baked and the full tables when their bake ends; a render never uses
+the preview (the Render operator waits, a file saved in preview is re-baked on load)."""
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from extension import ROOT, extension_module, names
+
+bpy = pytest.importorskip("bpy")
+
+# Stand-ins that keep the test short: the "full" tables are the draft (16 x 64 x 32 x 8, ~3 s),
+# the preview smaller still. The code path is the one a default bake takes.
+FULL = "draft"
+PREVIEW = (8, 32, 8, 4)
+
+
+@pytest.fixture
+def wired(addon_package, tmp_path, monkeypatch):
+    monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "cache"))
+    baking = extension_module("addon.baking")
+    monkeypatch.setattr(baking, "PREVIEW_RESOLUTION", PREVIEW)
+    batch = extension_module("addon.batch")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    args = batch.parse_args(["--sample", "--tables", FULL, "--resolution", "32x18", "--samples", "1",
+                             "--output", str(tmp_path / "x.png")])
+    scene = batch.prepare(args)
+    batch.apply_options(scene, args)
+    batch.wire(scene, args)
+    return scene, baking
+
+
+def wait_for(condition, timeout=120.0):
+    end = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < end, "timed out"
+        time.sleep(0.05)
+
+
+def sky_images(scene):
+    """Names of the table images the world's look-up group reads."""
+    lookup = bpy.data.node_groups[names.LOOKUP_GROUP]
+    return {node.image.name for node in lookup.nodes if node.type == "TEX_IMAGE" and node.image}
+
+
+def changed_params(scene):
+    settings = extension_module("addon.settings")
+    scene.ols.aerosol_density = 1.6             # the slider change
+    return settings.atmosphere_params(scene.ols).validate()
+
+
+def test_a_change_shows_the_preview_then_the_new_tables(wired):
+    scene, baking = wired
+    old_key, old_images = scene[names.WIRED_KEY], sky_images(scene)
+    params = changed_params(scene)
+    started = time.perf_counter()
+    bake = baking.BackgroundBake(params, FULL, preview=True)
+    assert bake.preview_resolution == PREVIEW and baking.latest() is bake
+    wait_for(lambda: bake.preview_ready or bake.done)
+    assert bake.preview_ready and not bake.error
+    # What the operator's timer does when the preview is ready.
+    baking.swap_in(scene, bake.preview_directory, preview=True)
+    print(f"preview on screen {time.perf_counter() - started:.2f} s after the change")
+    assert baking.showing_preview(scene)
+    assert scene[names.WIRED_KEY] == bake.preview_directory.name != old_key
+    assert sky_images(scene).isdisjoint(old_images)
+    assert "draft preview" in baking.progress_line(bake) or bake.done
+    assert bake.wait(300) and not bake.error and not bake.superseded
+    baking.swap_in(scene, bake.directory)
+    assert not baking.showing_preview(scene)
+    assert scene[names.WIRED_KEY] == bake.directory.name
+    assert baking.latest() is None
+    # Baked: the same change again needs no preview.
+    assert baking.BackgroundBake(params, FULL, preview=True).preview_resolution is None
+
+
+def test_a_newer_bake_supersedes_an_older_one(wired):
+    scene, baking = wired
+    first = baking.BackgroundBake(changed_params(scene), FULL, preview=False)
+    first.render_after = "STILL"
+    scene.ols.aerosol_density = 0.7
+    second = baking.BackgroundBake(extension_module("addon.settings").atmosphere_params(scene.ols), FULL)
+    assert first.superseded and second.render_after == "STILL"     # F12 carries over
+    assert first.wait(300) and second.wait(300)
+    assert not second.superseded and not second.error
+    # The older bake stopped before saving anything.
+    assert not baking.is_baked(first.params, FULL)
+    assert baking.is_baked(second.params, FULL)
+
+
+def test_a_render_while_the_preview_shows_uses_the_new_tables(wired, tmp_path):
+    scene, baking = wired
+    params = changed_params(scene)
+    bake = baking.BackgroundBake(params, FULL, preview=True)
+    wait_for(lambda: bake.preview_ready or bake.done)
+    baking.swap_in(scene, bake.preview_directory, preview=True)
+    # A file saved now, rendered by a farm worker while this session's bake still runs: the
+    # worker re-bakes the tables the scene asks for on load and renders with them.
+    blend = tmp_path / "saved_in_preview.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
+    result = subprocess.run([sys.executable, str(ROOT / "scripts" / "render.py"), "--blend", str(blend),
+                             "--output", str(tmp_path / "farm.png")],
+                            capture_output=True, text=True, timeout=600, env={**os.environ})
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    assert "saved showing the draft preview" in result.stdout
+    assert "draft preview tables" not in result.stdout        # render_init's warning: not rendered in preview
+    # In this session the Render operator waits for the bake and swaps the new tables in first.
+    output = tmp_path / "ui.png"
+    assert bpy.ops.ols.render(filepath=str(output)) == {"FINISHED"}
+    assert not baking.showing_preview(scene)
+    assert scene[names.WIRED_KEY] == baking.bake_directory(params, FULL).name
+    pixels = np.array(bpy.data.images.load(str(output)).pixels[:]).reshape(-1, 4)[:, :3]
+    assert pixels.mean() > 0.05                                      # a real picture
+    farm = np.array(bpy.data.images.load(str(tmp_path / "farm.png")).pixels[:]).reshape(-1, 4)[:, :3]
+    assert np.abs(farm - pixels).max() < 2 / 255                     # the same tables, the same frame
