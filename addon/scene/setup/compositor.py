@@ -50,6 +50,7 @@ def check_compositor(scene):
 
 def wire_compositor(scene):
     group = nodes.build_tone_mapping_group()
+    nodes.builder.lay_out(group)
     tree = scene.compositing_node_group
     if tree is None:
         tree = bpy.data.node_groups.get(names.COMPOSITOR_TREE) or bpy.data.node_groups.new(names.COMPOSITOR_TREE, "CompositorNodeTree")
@@ -208,6 +209,7 @@ def link_light_shafts(scene):
         luts.write_data_image(names.FRAME_IMAGE, frame_values.pack({}))
     if not nodes.frame_values.is_current(frame.node_tree, bpy.data.images[names.FRAME_IMAGE]):
         frame.node_tree = nodes.build_frame_values_group(bpy.data.images[names.FRAME_IMAGE])
+        nodes.builder.lay_out(frame.node_tree)
     tree.links.new(layers.outputs["Image"], frame.inputs["Image"])
     for target in (aerial, shafts, veil):
         for output in frame.outputs if target is not None else ():

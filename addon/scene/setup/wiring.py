@@ -55,6 +55,7 @@ def build_groups(bake_dir, engine="CYCLES"):
     for table in nodes.COMPOSITOR_TABLES:
         nodes.build_section_group(table, params)
     nodes.build_aerial_group(images["optical_depth"], params)
+    nodes.builder.lay_out_groups()
     return images, params
 
 
@@ -74,6 +75,7 @@ def build_light_shafts(scene, optical_image, params):
     cloud_map = clouds.ensure_map_image(clouds.seed_of(scene)) if layout.clouds else None
     nodes.build_light_shaft_groups(optical_image, atlas, table, params, layout,
                                    epipolar_tables.ensure_images(layout, settings), cloud_map)
+    nodes.builder.lay_out_groups()
     frame_update.forget()           # new groups may read new (empty) images: write them again
 
 
