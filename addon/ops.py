@@ -19,7 +19,7 @@ from .scene.tables import packed_tables, wired_bake
 from .settings import atmosphere_params
 
 RESOLUTION_ITEMS = [("default", "Default", "The sample's 32 x 128 x 64 x 16 tables (~10-20 s)"),
-                    ("draft", "Draft", "Half every dimension (~2 s)")]
+                    ("draft", "Draft", "Half every dimension (about 2 s)")]
 
 
 def terrain_candidates(context):
