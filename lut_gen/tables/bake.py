@@ -37,6 +37,7 @@ from typing import Callable, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
+from .process_tuning import blas_on_one_thread, tuned_for_bake
 from . import parameterization as par
 from ..model.atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
 from ..model.profiles import ozone_density
@@ -85,7 +86,7 @@ def _parallel_rows(function, count: int, progress: Progress, stage: str):
     """Run function(i) for i in range(count) on all cores (numpy releases the GIL in its
     loops), reporting progress in completion order."""
     workers = max(1, min(os.cpu_count() or 1, 8))
-    with ThreadPoolExecutor(workers) as pool:
+    with blas_on_one_thread(), ThreadPoolExecutor(workers) as pool:
         try:
             for done, _ in enumerate(pool.map(function, range(count)), 1):
                 progress(stage, done / count)
@@ -606,7 +607,11 @@ def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", ord
     res = resolve_resolution(resolution)
     if isinstance(orders, bool) or not isinstance(orders, (int, np.integer)) or not 1 <= orders <= MAX_ORDERS:
         raise ValueError(f"orders must be an integer from 1 to {MAX_ORDERS}, got {orders!r}")
-    report = progress or (lambda stage, fraction: None)
+    with tuned_for_bake():
+        return _bake_stages(params, res, orders, progress or (lambda stage, fraction: None), tail)
+
+
+def _bake_stages(params: AtmosphereParams, res: Resolution, orders: int, report: Progress, tail: bool) -> Luts:
     timings = {}
 
     t0 = time.perf_counter()
