@@ -86,9 +86,29 @@ GEOMETRIES = {
     "8 km, view -2 (sky below the horizontal), sun 30, azimuth 90": ray(8000, -2, 30, 90),
     "8 km, view -45 (ground), sun 40, azimuth 90": ray(8000, -45, 40, 90),
 }
+# The sunset glow (issue 26's bar: within 10%, max, from sun +5 to -6 deg, views toward the sun
+# included). Measured 2026-12-04 with two sets of seeds: median 1.8%, max 5.1% (these seeds) and
+# 7.8% (the view 3 deg up 30 deg from a sun on the horizon, MC standard error 1.4%); toward a
+# sun 2 deg up 2.7%, where the issue measured four orders alone 22% off. At sun -6
+# deg the path tracer's standard error is 5-8% even at 8x the paths (the zenith 3.1%, 5 deg up
+# toward the sun 6.8%): too noisy to assert at a test's cost, so -6 is not in the set.
+LOW_SUN_GEOMETRIES = {
+    "2 m, view 3, sun 5, toward sun": ray(2, 3, 5, 0),
+    "2 m, view 10, sun 5, azimuth 180": ray(2, 10, 5, 180),
+    "2 m, view 3, sun 2, toward sun": ray(2, 3, 2, 0),
+    "2 m, view 3, sun 2, azimuth 15": ray(2, 3, 2, 15),
+    "2 m, zenith, sun 1": ray(2, 90, 1, 0),
+    "1 km, view 1, sun 1, azimuth 60": ray(1000, 1, 1, 60),
+    "2 m, view 3, sun 0, azimuth 30": ray(2, 3, 0, 30),
+    "2 m, view 5, sun -2, toward sun": ray(2, 5, -2, 0),
+    "2 m, view 20, sun -2, azimuth 180": ray(2, 20, -2, 180),
+}
+LOW_SUN_MAX = 0.10
 # Twilight: most collisions on the view ray lie in the Earth's shadow, so the path tracer needs
-# many more paths there (its standard errors stay ~2 % even so).
-PATH_FACTOR = {"2 m, zenith, sun -4": 8, "2 m, view 2, sun -4, toward sun": 8}
+# many more paths there (its standard errors stay ~2 % even so); toward a low sun, twice as many.
+PATH_FACTOR = {"2 m, zenith, sun -4": 8, "2 m, view 2, sun -4, toward sun": 8,
+               **{name: (8 if name.endswith(("sun -2, toward sun", "sun -2, azimuth 180")) else 2)
+                  for name in LOW_SUN_GEOMETRIES}}
 
 
 @dataclass(frozen=True)
@@ -153,14 +173,25 @@ def relative_se(se, want):
 
 @pytest.fixture(scope="module")
 def comparison(default_luts):
+    return compare(default_luts, GEOMETRIES, first_seed=1)
+
+
+@pytest.fixture(scope="module")
+def low_sun_comparison(default_luts):
+    return compare(default_luts, LOW_SUN_GEOMETRIES, first_seed=100)
+
+
+def compare(luts, geometries, first_seed):
+    """Per geometry: the path tracer's radiance and the tables' totals, higher orders and ground,
+    with their relative errors (printed)."""
     rows = {}
-    for i, (name, geometry) in enumerate(GEOMETRIES.items()):
-        mc = spectral_monte_carlo(PARAMS, geometry, paths=PATHS * PATH_FACTOR.get(name, 1), seed=i + 1)
+    for i, (name, geometry) in enumerate(geometries.items()):
+        mc = spectral_monte_carlo(PARAMS, geometry, paths=PATHS * PATH_FACTOR.get(name, 1), seed=first_seed + i)
         row = {
             "mc": mc,
-            "total": default_luts.sky_radiance(*geometry, table="multiple").astype(np.float64),
-            "higher": default_luts.sky_radiance(*geometry, table="higher").astype(np.float64),
-            "ground": default_luts.ground_radiance(*geometry).astype(np.float64),
+            "total": luts.sky_radiance(*geometry, table="multiple").astype(np.float64),
+            "higher": luts.sky_radiance(*geometry, table="higher").astype(np.float64),
+            "ground": luts.ground_radiance(*geometry).astype(np.float64),
         }
         row["total_err"] = relative_error(row["total"], mc.total)
         row["higher_err"] = relative_error(row["higher"], mc.higher)
@@ -195,7 +226,8 @@ def _print_table(rows):
     total = [r["total_err"] for r in rows.values()]
     higher = [r["higher_err"] for r in rows.values()]
     ground = [r["ground_err"] for r in rows.values() if "ground_err" in r]
-    print(f"ground: max {np.max(ground):.2%}")
+    if ground:
+        print(f"ground: max {np.max(ground):.2%}")
     print(f"totals: median {np.median(total):.2%} max {np.max(total):.2%}; "
           f"higher: median {np.median(higher):.2%} max {np.max(higher):.2%}")
 
@@ -225,3 +257,11 @@ def test_ground_radiance_matches_monte_carlo(comparison):
     errors = {name: row["ground_err"] for name, row in comparison.items() if "ground_err" in row}
     assert len(errors) >= 3
     assert max(errors.values()) <= GROUND_MAX, errors
+
+
+def test_the_sunset_glow_matches_monte_carlo(low_sun_comparison):
+    """Multiple scattering with the sun from +5 to -2 deg, toward it and away from it."""
+    standard_errors = {name: relative_se(row["mc"].total_se, row["mc"].total) for name, row in low_sun_comparison.items()}
+    assert max(standard_errors.values()) <= 0.03, standard_errors
+    errors = {name: row["total_err"] for name, row in low_sun_comparison.items()}
+    assert max(errors.values()) <= LOW_SUN_MAX, {k: v for k, v in errors.items() if v > LOW_SUN_MAX}
