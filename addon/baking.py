@@ -158,7 +158,7 @@ def latest():
 
 def progress_line(bake) -> str:
     """The status bar's and the panel's line for a running bake."""
-    line = f"Baking atmosphere tables: {bake.stage} {bake.fraction * 100:.0f}%"
+    line = f"Baking atmosphere tables {bake.fraction * 100:.0f}%: {bake.stage}"
     if bake.preview_ready:
         line += " (showing the draft preview)"
     if bake.render_after:

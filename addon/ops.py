@@ -126,8 +126,13 @@ class OLS_OT_bake_luts(bpy.types.Operator):
             return {"CANCELLED"}
         result = self._finish(context, bake.directory)
         if result == {"FINISHED"} and bake.render_after:
-            bpy.ops.render.render("INVOKE_DEFAULT", animation=bake.render_after == "ANIMATION")
+            start_render(animation=bake.render_after == "ANIMATION")
         return result
+
+
+def start_render(animation: bool):
+    """The render F12 (Ctrl+F12: the animation) asked for while the tables baked."""
+    bpy.ops.render.render("INVOKE_DEFAULT", animation=animation)
 
 
 def _redraw_sidebars(context):

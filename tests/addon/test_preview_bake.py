@@ -5,6 +5,7 @@ import os
 import subprocess
 import sys
 import time
+import types
 
 import numpy as np
 import pytest
@@ -116,3 +117,55 @@ def test_a_render_while_the_preview_shows_uses_the_new_tables(wired, tmp_path):
     assert pixels.mean() > 0.05                                      # a real picture
     farm = np.array(bpy.data.images.load(str(tmp_path / "farm.png")).pixels[:]).reshape(-1, 4)[:, :3]
     assert np.abs(farm - pixels).max() < 2 / 255                     # the same tables, the same frame
+
+
+class FakeWindowManager:
+    """What the modal operator calls on the window manager and workspace (no window here)."""
+
+    def __init__(self):
+        self.status = []
+
+    def progress_update(self, value):
+        pass
+
+    def progress_end(self):
+        pass
+
+    def event_timer_remove(self, timer):
+        pass
+
+    def status_text_set(self, text):
+        self.status.append(text)
+
+
+def test_the_bake_operator_shows_the_preview_and_renders_after_f12(wired, monkeypatch):
+    """The Bake Tables operator's modal steps as the UI's timer drives them: F12 pressed while
+    baking is held back, the preview is shown when ready, then the full tables, then the render."""
+    scene, baking = wired
+    ops = extension_module("addon.ops")
+    renders = []
+    monkeypatch.setattr(ops, "start_render", lambda **kwargs: renders.append(kwargs))
+    wm = FakeWindowManager()
+    context = types.SimpleNamespace(scene=scene, window_manager=wm, workspace=wm, screen=None, selected_objects=[])
+    operator = types.SimpleNamespace(resolution=FULL, setup_after=False, preview=True, reports=[])
+    operator.report = lambda kind, message: operator.reports.append((kind, message))
+    for method in ("_show", "_finish"):
+        setattr(operator, method, getattr(ops.OLS_OT_bake_luts, method).__get__(operator))
+    operator._params = changed_params(scene)
+    operator._bake = baking.BackgroundBake(operator._params, FULL, preview=True)
+    operator._preview_shown, operator._timer = False, None
+    modal = ops.OLS_OT_bake_luts.modal
+    f12 = types.SimpleNamespace(type="F12", value="PRESS", ctrl=False)
+    assert modal(operator, context, f12) == {"RUNNING_MODAL"}          # held back, not passed on
+    timer = types.SimpleNamespace(type="TIMER", value="NOTHING", ctrl=False)
+    seen_preview = False
+    end = time.monotonic() + 300
+    while (result := modal(operator, context, timer)) == {"RUNNING_MODAL"}:
+        seen_preview |= baking.showing_preview(scene)
+        assert time.monotonic() < end, "timed out"
+        time.sleep(0.05)
+    assert result == {"FINISHED"}, operator.reports
+    assert seen_preview and not baking.showing_preview(scene)
+    assert scene[names.WIRED_KEY] == baking.bake_directory(operator._params, FULL).name
+    assert any("draft preview" in (line or "") for line in wm.status) and wm.status[-1] is None
+    assert renders == [{"animation": False}]                            # F12's render, after the swap
