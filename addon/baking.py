@@ -4,9 +4,9 @@ wired scene. Operators, handlers, batch renders, benches and tests all bake thro
 ``BackgroundBake`` runs a bake on a worker thread so that Blender stays responsive; its state is
 read by the Bake Tables operator's modal timer on the main thread (bpy is touched only there).
 
-The preview: a default bake takes 20-25 s on two cores, the draft (half every axis) about 2.5 s.
+The preview: a default bake takes 17-25 s on two cores, the draft (half every axis) about 1.5 s.
 A background bake of tables that are not cached bakes the draft first; the operator shows it
-(``show``, preview=True) and swaps the full tables in when they are done. A scene showing a
+(swap_in with preview=True) and swaps the full tables in when they are done. A scene showing a
 preview says so (names.PREVIEW_KEY): the panel, F12 (which waits), the Render operator and a
 file opened later (which re-bakes) all read it. A newer bake supersedes an older one: the older
 stops at its next progress report and never swaps in (``latest``).
@@ -74,7 +74,7 @@ def mark_preview(scene, preview: bool):
 
 def showing_preview(scene) -> bool:
     """True while a wired scene shows the draft preview of tables still baking."""
-    return scene is not None and bool(scene.get(names.PREVIEW_KEY))
+    return scene is not None and bool(scene.get(names.WIRED_KEY)) and bool(scene.get(names.PREVIEW_KEY))
 
 
 PREVIEW_RESOLUTION = "draft"

@@ -169,3 +169,14 @@ def test_the_bake_operator_shows_the_preview_and_renders_after_f12(wired, monkey
     assert scene[names.WIRED_KEY] == baking.bake_directory(operator._params, FULL).name
     assert any("draft preview" in (line or "") for line in wm.status) and wm.status[-1] is None
     assert renders == [{"animation": False}]                            # F12's render, after the swap
+
+
+def test_unwiring_drops_the_preview_mark(wired):
+    """An unwired scene never counts as showing a preview (a file load would re-bake into it)."""
+    scene, baking = wired
+    baking.mark_preview(scene, True)
+    assert baking.showing_preview(scene)
+    extension_module("addon.scene.setup.wiring").unwire_scene(scene)
+    assert names.PREVIEW_KEY not in scene and not baking.showing_preview(scene)
+    scene[names.PREVIEW_KEY] = True                 # a stale mark on an unwired scene
+    assert not baking.showing_preview(scene)

@@ -321,6 +321,6 @@ def unwire_scene(scene):
         if name and name in bpy.data.materials and obj.material_slots:
             obj.material_slots[obj.active_material_index].material = bpy.data.materials[name]
             del obj[names.PREVIOUS_MATERIAL]
-    for key in (names.PREVIOUS_WORLD, names.WIRED_KEY, names.RESOLUTION_KEY):
+    for key in (names.PREVIOUS_WORLD, names.WIRED_KEY, names.RESOLUTION_KEY, names.PREVIEW_KEY):
         if key in scene:
             del scene[key]
