@@ -44,7 +44,8 @@ from ..model.profiles import ozone_density
 from ..model.spectrum import Media, bake_media, spectral_resample_matrix
 from .ground import GroundSource
 from ..model.geometry import clustered_nodes, distance_to_sphere_exit, radius_along, ray_length
-from .interpolation import (axis_weights, gather, geometric_lerp, packed_rows, resample_matrix, resample_sun_geometric)
+from .interpolation import (axis_weights, floored_log, gather, geometric_lerp_of_logs, packed_rows, resample_matrix,
+                            resample_sun_geometric)
 from .optical_depth import EARTH_HIT_NET_DENSITY, below_first_row_factors
 from .lookup import Luts
 
@@ -495,11 +496,13 @@ def _integrate_order(params, media: Media, dims_j, j_table, progress: Progress, 
         ct = par.clamp_sun_view(cos_view_i[:, None, None], cos_sun[None, :, None], cos_sun_view[None, None, :])
         cos_node = _node_cos_sun(r, nodes, cos_sun, ct)                                      # (a, K, s, t)
         i_s, w_s = axis_weights(par.sun_zenith_to_x(cos_node, n_s), n_s)
-        packed, width = packed_rows(slab.reshape(-1, 2 * channels))
+        # Blended geometrically along the sun zenith, from the slab's logs (one per entry, not
+        # two per look-up: a third of the orders' time went to those logs).
+        packed, width = packed_rows(floored_log(slab).reshape(-1, 2 * channels))
         base = ((np.arange(n_rays)[:, None, None, None] * HIGHER_NODES + np.arange(HIGHER_NODES)[None, :, None, None]) * n_t
                 + np.arange(n_t)[None, None, None, :]) * n_s                                  # (a, K, 1, t)
-        j_nodes = geometric_lerp(gather(packed, width, base + i_s), gather(packed, width, base + i_s + 1),
-                                 w_s[..., None])                                           # (a, K, s, t, 2C)
+        j_nodes = geometric_lerp_of_logs(gather(packed, width, base + i_s), gather(packed, width, base + i_s + 1),
+                                         w_s[..., None])                                   # (a, K, s, t, 2C)
         ray_r = np.einsum("akstc,akc->astc", j_nodes[..., :channels], nodes.weight_rayleigh)
         ray_m = np.einsum("akstc,akc->astc", j_nodes[..., channels:2 * channels], nodes.weight_mie)
         out[i, rays] = (media.rayleigh * ray_r + media.mie * ray_m) / rayleigh_phase(ct)[..., None]

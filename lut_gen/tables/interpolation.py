@@ -122,6 +122,27 @@ def geometric_lerp(low: np.ndarray, high: np.ndarray, weight) -> np.ndarray:
     return np.exp(log_low + (log_high - log_low) * weight).astype(np.float32)
 
 
+LOG_GEOMETRIC_FLOOR = np.float32(np.log(GEOMETRIC_FLOOR))
+LOG_ABSOLUTE_FLOOR = np.float32(np.log(1e-30))
+
+
+def floored_log(values: np.ndarray) -> np.ndarray:
+    """log(max(values, 1e-30)) in float32: the logs geometric_lerp_of_logs blends."""
+    return np.log(np.maximum(values, np.float32(1e-30))).astype(np.float32, copy=False)
+
+
+def geometric_lerp_of_logs(log_low: np.ndarray, log_high: np.ndarray, weight) -> np.ndarray:
+    """geometric_lerp of exp(log_low) and exp(log_high), floors included, from logs taken once
+    per table entry (floored_log) instead of twice per look-up: log is monotonic, so
+    log(max(x, floor)) is the max of the logs."""
+    floor = np.maximum(np.maximum(log_low, log_high) + LOG_GEOMETRIC_FLOOR, LOG_ABSOLUTE_FLOOR)
+    low, high = np.maximum(log_low, floor), np.maximum(log_high, floor)
+    high -= low
+    high *= weight
+    high += low
+    return np.exp(high, out=high)
+
+
 def resample_sun_geometric(table: np.ndarray, matrices) -> np.ndarray:
     """resample_separable with the sun-zenith axis (2) interpolated geometrically."""
     out = resample_separable(table, [m if axis != 2 else None for axis, m in enumerate(matrices)])
