@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import bpy
 
-from ...lut_gen.tables.interpolation import GEOMETRIC_FLOOR
+from ...lut_gen.tables.interpolation import ABSOLUTE_FLOOR, GEOMETRIC_FLOOR
 
 
 class Graph:
@@ -98,7 +98,7 @@ class Graph:
     def vgeometric_lerp(self, a, b, t):
         """Component-wise a^(1-t) b^t with lut_gen.tables.interpolation.geometric_lerp's floor; t a
         scalar socket."""
-        floor = self.vmath("MAXIMUM", self.vscale(self.vmath("MAXIMUM", a, b), float(GEOMETRIC_FLOOR)), (1e-30,) * 3)
+        floor = self.vmath("MAXIMUM", self.vscale(self.vmath("MAXIMUM", a, b), float(GEOMETRIC_FLOOR)), (float(ABSOLUTE_FLOOR),) * 3)
         low, high = self.vmath("MAXIMUM", a, floor), self.vmath("MAXIMUM", b, floor)
         return self.vmath("MULTIPLY", low, self.vmath("POWER", self.vmath("DIVIDE", high, low), self.combine(t, t, t)))
 

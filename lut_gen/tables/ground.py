@@ -81,6 +81,8 @@ class GroundSource:
         self.transmittance = np.where(self.hits[..., None], np.exp(-np.minimum(net @ extinction, 80.0)), 0.0)
         self.radius = params.earth_radius + heights
         self.direct = direct_irradiance(params, optical_depth, extinction, cos_sun)     # (s, C)
+        self._reflected = ((self.albedo / math.pi) * self.transmittance[:, None, :, None, :]).astype(np.float32)
+        self._weights_for = None        # (cos_sun_view, i_s, w_s) of _sun_weights
 
     def radiance(self, irradiance, cos_sun_view) -> np.ndarray:
         """(h, s, mu, az, C) radiance of the ground lit with ``irradiance`` (s, C) on the sun
@@ -95,14 +97,13 @@ class GroundSource:
     def _sun_weights(self, cos_sun_view):
         """Where each ground point's sun falls on the sun nodes: the same directions every
         order, so found once (it was a third of the ground's cost per order)."""
-        cached = getattr(self, "_weights_for", None)
+        cached = self._weights_for
         if cached is None or not np.array_equal(cached[0], cos_sun_view):
             n_s = len(self.cos_sun)
             cos_at = ((self.radius[:, None, None, None] * self.cos_sun[None, :, None, None]
                        + self.distance[:, None, :, None] * cos_sun_view[None]) / self.params.earth_radius)
             i_s, w_s = axis_weights(par.sun_zenith_to_x(np.clip(cos_at, -1.0, 1.0), n_s), n_s)
             self._weights_for = cached = (np.array(cos_sun_view), i_s, w_s.astype(np.float32))
-            self._reflected = ((self.albedo / math.pi) * self.transmittance[:, None, :, None, :]).astype(np.float32)
         return cached[1], cached[2]
 
     def sky_irradiance(self, table_n, table_mie=None) -> np.ndarray:

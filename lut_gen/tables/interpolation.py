@@ -109,6 +109,9 @@ def resample_separable(table: np.ndarray, matrices) -> np.ndarray:
 
 # Below this fraction of a node pair's larger value, geometric interpolation falls back to 0.
 GEOMETRIC_FLOOR = np.float32(1e-9)
+ABSOLUTE_FLOOR = np.float32(1e-30)      # ... and below this value
+LOG_GEOMETRIC_FLOOR = np.float32(np.log(GEOMETRIC_FLOOR))
+LOG_ABSOLUTE_FLOOR = np.float32(np.log(ABSOLUTE_FLOOR))
 
 
 def geometric_lerp(low: np.ndarray, high: np.ndarray, weight) -> np.ndarray:
@@ -117,18 +120,12 @@ def geometric_lerp(low: np.ndarray, high: np.ndarray, weight) -> np.ndarray:
     linear interpolation across the 32 sun nodes of that grid overestimated it (the second
     order 7% at sun -4 deg against the brute-force reference), geometric interpolation follows
     it (1%) and equals linear interpolation where the sky changes slowly."""
-    floor = np.maximum(np.maximum(low, high) * GEOMETRIC_FLOOR, np.float32(1e-30))
-    log_low, log_high = np.log(np.maximum(low, floor)), np.log(np.maximum(high, floor))
-    return np.exp(log_low + (log_high - log_low) * weight).astype(np.float32)
-
-
-LOG_GEOMETRIC_FLOOR = np.float32(np.log(GEOMETRIC_FLOOR))
-LOG_ABSOLUTE_FLOOR = np.float32(np.log(1e-30))
+    return geometric_lerp_of_logs(floored_log(low), floored_log(high), weight)
 
 
 def floored_log(values: np.ndarray) -> np.ndarray:
-    """log(max(values, 1e-30)) in float32: the logs geometric_lerp_of_logs blends."""
-    return np.log(np.maximum(values, np.float32(1e-30))).astype(np.float32, copy=False)
+    """log(max(values, ABSOLUTE_FLOOR)) in float32: the logs geometric_lerp_of_logs blends."""
+    return np.log(np.maximum(values, ABSOLUTE_FLOOR)).astype(np.float32, copy=False)
 
 
 def geometric_lerp_of_logs(log_low: np.ndarray, log_high: np.ndarray, weight) -> np.ndarray:
