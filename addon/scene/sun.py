@@ -82,7 +82,8 @@ class OriginTransmittance:
         image.pixels.foreach_get(pixels)
         # Image x = height axis, y = cos zenith axis (see lut_gen.store.exr_io); row 0 at the bottom.
         self.ground_row = pixels.reshape(height, width, 4)[:, 0, :3].astype(np.float64)
-        self.extinction = params.extinction_matrix()
+        # The image holds Rayleigh, Mie and ozone: the lamp does not yet take a fog's extinction.
+        self.extinction = params.extinction_matrix()[:3]
 
     def __call__(self, cos_sun_zenith: float) -> np.ndarray:
         n = len(self.ground_row)

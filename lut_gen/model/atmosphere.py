@@ -69,8 +69,30 @@ SAMPLE_MIE_G = 0.76
 DEFAULT_GROUND_ALBEDO = 0.2
 
 
-# An optical depth of 10 per kilometre: far hazier than any fog the tables are meant for.
+# An optical depth of 10 per kilometre: far hazier than any haze the tables are meant for (fog
+# has its own limit, FOG_VISIBILITY_RANGE).
 MAX_COEFFICIENT = 1e-2
+
+# Fog: a second aerosol layer of water droplets, hugging the ground. Its extinction at the
+# ground comes from the meteorological visibility by Koschmieder's law (the distance at which a
+# black object's contrast against the horizon sky falls to 2%: beta = -ln 0.02 / V = 3.912 / V),
+# counted for the fog alone. Droplets of 5-20 um are far larger than the wavelength: their
+# scattering is grey, they absorb almost nothing in the visible (single-scattering albedo
+# > 0.999), and their phase function is strongly forward (asymmetry 0.85 for fog and cloud
+# droplets at 550 nm; Hess et al. 1998, OPAC "fog").
+KOSCHMIEDER_CONSTANT = -math.log(0.02)
+FOG_G = 0.85
+# Visibility from 10 m (thicker than any real fog: the tables' height axis stops resolving the
+# layer there) to 100 km (no visible fog); 0 means no fog.
+FOG_VISIBILITY_RANGE = (10.0, 100_000.0)
+FOG_HEIGHT_RANGE = (1.0, 5_000.0)
+
+
+def fog_extinction(visibility_m: float) -> float:
+    """Fog extinction at the ground (1/m) for a visibility in metres (0: no fog)."""
+    return KOSCHMIEDER_CONSTANT / visibility_m if visibility_m > 0.0 else 0.0
+
+
 TRIPLES = ("rayleigh_scattering", "mie_scattering", "ozone_absorption")
 # Physical ranges (units of the fields): a planet from a small moon to a gas giant, an
 # atmosphere from 1 km to 1000 km, coefficients up to MAX_COEFFICIENT.
@@ -87,6 +109,8 @@ PARAMETER_RANGES = {
     "mie_g": (-0.999, 0.999),
     "ozone_column": (0.0, 2000.0),
     "ground_albedo": (0.0, 1.0),
+    "fog_height": FOG_HEIGHT_RANGE,
+    "fog_g": (-0.999, 0.999),
 }
 
 
@@ -102,6 +126,9 @@ class AtmosphereParams:
     units) sets the spectral ozone layer; ``ozone_absorption`` only the three-wavelength one.
     ``ground_albedo``: Lambertian ground, lit by the sun and the sky; its light enters the
     higher scattering orders and the ground a camera sees below the horizon.
+    ``fog_visibility`` (m, 0 = no fog), ``fog_height`` (m, the fog's exponential scale height)
+    and ``fog_g`` (its Cornette-Shanks asymmetry): a grey, non-absorbing fog layer at the
+    ground, a medium of its own beside the haze aerosol (fog_extinction).
     """
 
     earth_radius: float = 6_360_000.0
@@ -118,6 +145,9 @@ class AtmosphereParams:
     ozone_column: float = 300.0
     spectral: bool = True
     ground_albedo: float = DEFAULT_GROUND_ALBEDO
+    fog_visibility: float = 0.0
+    fog_height: float = 50.0
+    fog_g: float = FOG_G
 
     def __post_init__(self):
         # Triples given as lists (JSON, argparse) become tuples: params must stay hashable
@@ -146,6 +176,13 @@ class AtmosphereParams:
                 raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
         if self.atmosphere_height >= self.earth_radius:
             raise ValueError("atmosphere_height must be smaller than earth_radius")
+        _check_number("fog_visibility", self.fog_visibility, lower=0.0, upper=FOG_VISIBILITY_RANGE[1])
+        if 0.0 < self.fog_visibility < FOG_VISIBILITY_RANGE[0]:
+            raise ValueError(f"fog_visibility must be 0 (no fog) or at least {FOG_VISIBILITY_RANGE[0]:g} m, "
+                             f"got {self.fog_visibility!r}")
+        if self.fog_height >= self.atmosphere_height:
+            raise ValueError(f"fog_height ({self.fog_height:g} m) must lie inside the atmosphere "
+                             f"(atmosphere_height {self.atmosphere_height:g} m)")
         aerosol = max(self.mie_scattering) * self.aerosol_density * (1.0 + self.aerosol_absorption)
         if aerosol > MAX_COEFFICIENT:
             raise ValueError(f"the aerosol extinction (mie_scattering x aerosol_density x (1 + aerosol_absorption)) "
@@ -175,6 +212,15 @@ class AtmosphereParams:
         return np.asarray(self.mie_scattering, dtype=np.float64) * self.aerosol_density
 
     @property
+    def has_fog(self) -> bool:
+        return self.fog_visibility > 0.0
+
+    @property
+    def fog(self) -> float:
+        """Fog scattering = extinction at the ground (1/m), grey."""
+        return fog_extinction(self.fog_visibility)
+
+    @property
     def mie_extinction(self) -> np.ndarray:
         return self.extinction_matrix()[1]
 
@@ -183,13 +229,14 @@ class AtmosphereParams:
         return self.extinction_matrix()[2]
 
     def extinction_matrix(self) -> np.ndarray:
-        """(3 media, 3 channels): RGB optical depth = net densities (R, M, O) @ this."""
+        """(4 media, 3 channels): RGB optical depth = net densities (R, M, O, F) @ this."""
+        fog = np.full((1, 3), self.fog)
         if self.spectral:
-            return spectrum.rgb_coefficients(self)[2].copy()
+            return np.concatenate([spectrum.rgb_coefficients(self)[2], fog])
         ozone = np.asarray(self.ozone_absorption, dtype=np.float64) * (1.0 if self.ozone else 0.0)
         mie = np.asarray(self.mie_scattering, dtype=np.float64) * self.aerosol_density
-        return np.stack([np.asarray(self.rayleigh_scattering, dtype=np.float64),
-                         mie * (1.0 + self.aerosol_absorption), ozone])
+        return np.concatenate([np.stack([np.asarray(self.rayleigh_scattering, dtype=np.float64),
+                                         mie * (1.0 + self.aerosol_absorption), ozone]), fog])
 
     def to_dict(self) -> dict:
         d = asdict(self)

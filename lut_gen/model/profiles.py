@@ -23,7 +23,18 @@ def ozone_density(params, height_m):
     return np.clip(tent, 0.0, 1.0)
 
 
+def fog_density(params, height_m):
+    """The fog layer: exponential with its own scale height (params.fog_height); its extinction
+    at the ground is params.fog (0 without fog)."""
+    return np.exp(-np.maximum(height_m, 0.0) / params.fog_height)
+
+
+MEDIA = ("rayleigh", "mie", "ozone", "fog")
+
+
 def densities(params, height_m) -> np.ndarray:
-    """(..., 3) Rayleigh, Mie, ozone densities at the given heights."""
+    """(..., 4) Rayleigh, Mie, ozone and fog densities at the given heights (MEDIA's order, the
+    rows of AtmosphereParams.extinction_matrix)."""
     h = np.asarray(height_m)
-    return np.stack([rayleigh_density(params, h), mie_density(params, h), ozone_density(params, h)], axis=-1)
+    return np.stack([rayleigh_density(params, h), mie_density(params, h), ozone_density(params, h),
+                     fog_density(params, h)], axis=-1)

@@ -104,14 +104,23 @@ class Media:
     mie_extinction: np.ndarray   # (C,)
     ozone: np.ndarray            # (C,) absorption at the tent's peak (0 without ozone)
     to_rgb: np.ndarray           # (3, C) channel values -> linear Rec.709
+    fog: np.ndarray = None       # (C,) fog scattering = extinction at the ground (grey; 0 without fog)
+
+    def __post_init__(self):
+        if self.fog is None:
+            object.__setattr__(self, "fog", np.zeros_like(self.rayleigh))
 
     @property
     def channels(self) -> int:
         return len(self.rayleigh)
 
+    @property
+    def has_fog(self) -> bool:
+        return bool(np.any(self.fog > 0.0))
+
     def extinction_matrix(self) -> np.ndarray:
-        """(3 media, C): optical depth = net densities (Rayleigh, Mie, ozone) @ this."""
-        return np.stack([self.rayleigh, self.mie_extinction, self.ozone])
+        """(4 media, C): optical depth = net densities (Rayleigh, Mie, ozone, fog) @ this."""
+        return np.stack([self.rayleigh, self.mie_extinction, self.ozone, self.fog])
 
 
 def ozone_peak_absorption(params, wavelengths_nm) -> np.ndarray:
@@ -127,7 +136,8 @@ def media_at(params, wavelengths_nm) -> Media:
     lam = np.asarray(wavelengths_nm, dtype=np.float64)
     mie = power_law(params.mie_scattering, lam) * params.aerosol_density
     return Media(tuple(float(v) for v in lam), power_law(params.rayleigh_scattering, lam), mie,
-                 mie * (1.0 + params.aerosol_absorption), ozone_peak_absorption(params, lam), rgb_weights(lam))
+                 mie * (1.0 + params.aerosol_absorption), ozone_peak_absorption(params, lam), rgb_weights(lam),
+                 np.full(len(lam), params.fog))
 
 
 def triple_media(params) -> Media:
@@ -135,7 +145,7 @@ def triple_media(params) -> Media:
     mie = np.asarray(params.mie_scattering, dtype=np.float64) * params.aerosol_density
     ozone = np.asarray(params.ozone_absorption, dtype=np.float64) * (1.0 if params.ozone else 0.0)
     return Media((), np.asarray(params.rayleigh_scattering, dtype=np.float64), mie,
-                 mie * (1.0 + params.aerosol_absorption), ozone, np.eye(3))
+                 mie * (1.0 + params.aerosol_absorption), ozone, np.eye(3), np.full(3, params.fog))
 
 
 def bake_media(params, which: str = "single") -> Media:
@@ -155,7 +165,7 @@ def reference_media(params) -> Media:
 # -- RGB coefficients for the run-time node groups ------------------------------------------
 
 def _fit_paths(params):
-    """Net densities (Rayleigh, Mie, ozone) of sun paths a scene meets: from 0-30 km up, from
+    """Net densities (Rayleigh, Mie, ozone, fog) of sun paths a scene meets: from 0-30 km up, from
     the zenith to just past the horizon."""
     heights = np.array([0.0, 200.0, 1000.0, 3000.0, 8000.0, 15000.0, 30000.0])
     angles = np.radians(np.concatenate([np.linspace(0.0, 85.0, 18), np.linspace(86.0, 95.0, 19)]))
@@ -176,7 +186,8 @@ def _fit_paths(params):
 
 
 def _transmittance_rgb(media: Media, net):
-    return np.exp(-net @ media.extinction_matrix()) @ media.to_rgb.T
+    """Without the fog, whose grey extinction needs no fit."""
+    return np.exp(-net[:, :3] @ media.extinction_matrix()[:3]) @ media.to_rgb.T
 
 
 @functools.lru_cache(maxsize=16)

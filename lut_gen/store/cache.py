@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import Optional
 
 from ..model.atmosphere import AtmosphereParams
-from ..tables.bake import Progress, bake, resolve_resolution
+from ..tables.bake import Progress, bake, resolve_orders, resolve_resolution
 from .exr_io import bake_key, is_intact, load, removed_if_left_empty, save
 
 
@@ -18,17 +18,18 @@ def default_cache_root() -> Path:
     return base / "outdoor_light_scattering"
 
 
-def key_for(params: AtmosphereParams, resolution="default", orders: int = 4) -> str:
+def key_for(params: AtmosphereParams, resolution="default", orders=None) -> str:
     res = resolve_resolution(resolution)
-    return bake_key(params.validate(), res.scattering, res.optical_depth, res.ambient, orders)
+    params = params.validate()
+    return bake_key(params, res.scattering, res.optical_depth, res.ambient, resolve_orders(params, orders))
 
 
-def cache_directory(params: AtmosphereParams, resolution="default", orders: int = 4) -> Path:
+def cache_directory(params: AtmosphereParams, resolution="default", orders=None) -> Path:
     """The folder of the cache root that holds (or will hold) the bake for these inputs."""
     return default_cache_root() / key_for(params, resolution, orders)
 
 
-def bake_into(params: AtmosphereParams, *, resolution="default", orders: int = 4, directory=None,
+def bake_into(params: AtmosphereParams, *, resolution="default", orders=None, directory=None,
               progress: Optional[Progress] = None, overwrite: bool = False):
     """(directory, luts): bake and save unless ``directory`` (default: cache_directory) already
     holds this bake whole and undamaged (exr_io.is_intact: the bake manifest and the files' hashes),
@@ -44,7 +45,7 @@ def bake_into(params: AtmosphereParams, *, resolution="default", orders: int = 4
     return directory, luts
 
 
-def cached_bake(params: Optional[AtmosphereParams] = None, *, resolution="default", orders: int = 4,
+def cached_bake(params: Optional[AtmosphereParams] = None, *, resolution="default", orders=None,
                 directory=None, progress: Optional[Progress] = None):
     """(luts, directory, hit): load the bake for these inputs from ``directory`` (default: a
     folder named by the bake key under the cache root) or bake and save it there."""

@@ -11,6 +11,12 @@ flipped so that row 0 is the bottom row, as Blender's image.pixels has it):
     optical_depth.exr            (height x cos zenith): R, G, B = Rayleigh, Mie, ozone net density (m)
     ambient_skylight.exr         1 row: irradiance per unit sun against cos sun zenith
 
+and, for a bake with fog only (FOG_FILES; the manifest lists them):
+
+    single_fog_scattering.exr    4D atlas, fog single scattering without its phase function
+    fog_optical_depth.exr        like optical_depth.exr, R = the fog's net density divided by the
+                                 density at the ray's lowest point (lut_gen.tables.optical_depth)
+
 Writes are atomic per file (temporary name + rename) and a directory that holds a different
 bake is never overwritten unless asked. Every read checks format, layout version, that all
 files come from the same bake, and the pixel hash.
@@ -39,7 +45,7 @@ from ..tables.lookup import Luts
 # 2: single Mie scattering apart, ground-ray scale, spectral params.
 LAYOUT_VERSION = 2
 # Bump when the baker's numerics change (the same params then give different tables).
-BAKER_VERSION = 6   # 5: exponential optical-depth segments, columns below the first row; 6: the orders' geometric tail
+BAKER_VERSION = 7   # 5: exponential optical-depth segments, columns below the first row; 6: the orders' geometric tail; 7: fog
 
 FILES = {
     "single": "single_scattering.exr",
@@ -49,6 +55,11 @@ FILES = {
     "optical_depth": "optical_depth.exr",
     "ambient": "ambient_skylight.exr",
 }
+FOG_FILES = {
+    "single_fog": "single_fog_scattering.exr",
+    "fog_optical_depth": "fog_optical_depth.exr",
+}
+ALL_FILES = {**FILES, **FOG_FILES}
 PREFIX = "ols."
 EXR_MAGIC = b"\x76\x2f\x31\x01"
 
@@ -57,7 +68,7 @@ class LutError(Exception):
     """A bake directory or file that cannot be used, with a message that says why and what to do."""
 
 
-def bake_key(params: AtmosphereParams, dims, optical_depth_dims, ambient_size: int, orders: int) -> str:
+def bake_key(params: AtmosphereParams, dims, optical_depth_dims, ambient_size: int, orders) -> str:
     """Hash of everything that determines a bake's content: the cache key."""
     doc = {"layout": LAYOUT_VERSION, "baker": BAKER_VERSION, "params": params.to_dict(),
            "dims": list(dims), "optical_depth": list(optical_depth_dims), "ambient": ambient_size,
@@ -106,14 +117,30 @@ def _require_openexr():
 
 
 def _images(luts: Luts) -> dict:
-    return {
+    images = {
         "single": atlas.pack(luts.single),
         "single_mie": atlas.pack(luts.single_mie),
         "higher": atlas.pack(luts.higher),
         "multiple": atlas.pack(luts.multiple),
-        "optical_depth": np.ascontiguousarray(luts.optical_depth.transpose(1, 0, 2)),  # x = height
+        "optical_depth": np.ascontiguousarray(luts.optical_depth[..., :3].transpose(1, 0, 2)),  # x = height
         "ambient": luts.ambient[None, :, :],
     }
+    if luts.single_fog is not None:
+        images["single_fog"] = atlas.pack(luts.single_fog)
+        fog = np.zeros_like(luts.optical_depth[..., :3])
+        fog[..., 0] = luts.optical_depth[..., 3]
+        images["fog_optical_depth"] = np.ascontiguousarray(fog.transpose(1, 0, 2))
+    return images
+
+
+def bake_files(directory) -> list:
+    """The file names of the bake in ``directory``: FILES, and FOG_FILES where its manifest
+    lists them (a bake with fog)."""
+    try:
+        listed = manifest.read(directory)["files"]
+    except (manifest.ManifestError, OSError, KeyError, TypeError):
+        listed = {}
+    return list(FILES.values()) + [name for name in FOG_FILES.values() if name in listed]
 
 
 def _content_hash(image: np.ndarray) -> str:
@@ -153,8 +180,9 @@ def verify_bake(directory, key: Optional[str] = None) -> str:
     each file's own header naming that bake: a manifest written over files of several bakes
     fails too); ``key``: and that it is this bake. Raises LutError naming the file and the fix."""
     try:
-        found = manifest.verify(directory, FILES.values(), key)
-        for filename in FILES.values():
+        names = bake_files(directory)
+        found = manifest.verify(directory, names, key)
+        for filename in names:
             if _header_key(Path(directory) / filename) != found:
                 raise manifest.ManifestError(f"{Path(directory) / filename} comes from another bake than its "
                                              f"manifest's ({found[:8]}): the directory mixes files of different bakes")
@@ -216,7 +244,7 @@ def check_output_directory(directory, key: str, *, overwrite: bool = False, opti
         raise LutError(f"cannot create output directory {directory}: {exc.strerror}") from exc
     if not os.access(directory, os.W_OK | os.X_OK):
         raise LutError(f"output directory {directory} is not writable; choose another with {option}")
-    for filename in FILES.values():
+    for filename in ALL_FILES.values():
         _refuse_foreign_file(directory / filename)
     existing = _existing_key(directory)
     if existing == UNREADABLE and not overwrite:
@@ -271,6 +299,7 @@ def _write_tables(OpenEXR, directory: Path, key: str, luts: Luts):
         PREFIX + "params": json.dumps(luts.params.to_dict(), sort_keys=True),
         PREFIX + "dims": json.dumps(list(luts.dims)),
         PREFIX + "orders": str(luts.orders),
+        PREFIX + "orders_used": str(luts.orders_used),
         PREFIX + "storage": ("scattering tables hold linear Rec.709 radiance per unit sun divided by the Rayleigh "
                              "phase (single Mie: by nothing) and by the ground-ray scale"),
     }
@@ -280,9 +309,9 @@ def _write_tables(OpenEXR, directory: Path, key: str, luts: Luts):
             header = dict(common)
             header.update({PREFIX + "table": name, PREFIX + "content_sha256": _content_hash(image),
                            PREFIX + "shape": json.dumps(list(image.shape))})
-            fd, tmp = tempfile.mkstemp(prefix=f".{FILES[name]}.", suffix=".tmp", dir=directory)
+            fd, tmp = tempfile.mkstemp(prefix=f".{ALL_FILES[name]}.", suffix=".tmp", dir=directory)
             os.close(fd)
-            staged.append((tmp, directory / FILES[name]))
+            staged.append((tmp, directory / ALL_FILES[name]))
             _write_rgb(OpenEXR, tmp, image[::-1], header)
             os.chmod(tmp, default_mode())
         # No manifest while the files change: a bake killed between two renames leaves a
@@ -290,7 +319,11 @@ def _write_tables(OpenEXR, directory: Path, key: str, luts: Luts):
         manifest.remove(directory)
         for tmp, final in staged:
             os.replace(tmp, final)
-        manifest.write(directory, key, FILES.values())
+        written = [final.name for _, final in staged]
+        for name in FOG_FILES.values():         # an earlier bake's fog tables, overwritten by one without
+            if name not in written:
+                (directory / name).unlink(missing_ok=True)
+        manifest.write(directory, key, written)
     except (OSError, RuntimeError, manifest.ManifestError) as exc:
         # OpenEXR reports a full disk as a RuntimeError. The old bake stays: nothing was renamed.
         raise LutError(f"cannot write tables to {directory}: {exc}") from exc
@@ -318,7 +351,7 @@ def _existing_key(directory: Path):
         return manifest.read(directory)["bake_key"]
     except manifest.ManifestError:
         pass
-    present = [directory / name for name in FILES.values() if os.path.lexists(directory / name)]
+    present = [directory / name for name in ALL_FILES.values() if os.path.lexists(directory / name)]
     for path in present:
         try:
             key = _read_header(path).get(PREFIX + "bake_key")
@@ -358,7 +391,7 @@ def _refuse_foreign_file(path: Path):
 def _remove_stale_temporaries(directory: Path):
     """Temporary files a killed bake left (".<table>.XXXX.tmp"); called under the directory lock,
     so no running bake owns them."""
-    for filename in FILES.values():
+    for filename in ALL_FILES.values():
         for stale in directory.glob(f".{filename}.*.tmp"):
             try:
                 stale.unlink()
@@ -409,8 +442,10 @@ def load(directory, *, params: Optional[AtmosphereParams] = None) -> Luts:
         raise LutError(f"{directory} is not a directory of baked tables; bake one with python -m lut_gen bake --out {directory}")
     verify_bake(directory)
     images, headers = {}, {}
-    for name, filename in FILES.items():
-        headers[name], images[name] = _read_image(directory / filename)
+    present = bake_files(directory)
+    for name, filename in ALL_FILES.items():
+        if filename in present:
+            headers[name], images[name] = _read_image(directory / filename)
     first = headers["multiple"]
     _check_layout(directory, first)
     keys = {name: h.get(PREFIX + "bake_key") for name, h in headers.items()}
@@ -418,19 +453,27 @@ def load(directory, *, params: Optional[AtmosphereParams] = None) -> Luts:
         raise LutError(f"{directory} mixes files of different bakes ({keys}); re-bake it")
     for name, image in images.items():
         if headers[name].get(PREFIX + "content_sha256") != _content_hash(image):
-            raise LutError(f"{directory / FILES[name]} does not match its content hash (damaged file); re-bake it")
+            raise LutError(f"{directory / ALL_FILES[name]} does not match its content hash (damaged file); re-bake it")
     try:
         stored = AtmosphereParams.from_dict(json.loads(first[PREFIX + "params"])).validate()
         dims = tuple(json.loads(first[PREFIX + "dims"]))
-        orders = int(first[PREFIX + "orders"])
+        orders = first[PREFIX + "orders"]
+        orders = int(orders) if orders.isdigit() else orders
+        optical_depth = images["optical_depth"].transpose(1, 0, 2)
+        if stored.has_fog != ("single_fog" in images and "fog_optical_depth" in images):
+            raise LutError(f"{directory} lacks the fog tables its header asks for ({', '.join(FOG_FILES.values())}); "
+                           "re-bake it")
+        fog_column = (images["fog_optical_depth"].transpose(1, 0, 2)[..., :1] if stored.has_fog
+                      else np.zeros_like(optical_depth[..., :1]))
         luts = Luts(params=stored,
                     single=atlas.unpack(images["single"], dims),
                     single_mie=atlas.unpack(images["single_mie"], dims),
+                    single_fog=atlas.unpack(images["single_fog"], dims) if stored.has_fog else None,
                     higher=atlas.unpack(images["higher"], dims),
                     multiple=atlas.unpack(images["multiple"], dims),
-                    optical_depth=np.ascontiguousarray(images["optical_depth"].transpose(1, 0, 2)),
+                    optical_depth=np.ascontiguousarray(np.concatenate([optical_depth, fog_column], axis=-1)),
                     ambient=np.ascontiguousarray(images["ambient"][0]),
-                    orders=orders)
+                    orders=orders, orders_used=int(first.get(PREFIX + "orders_used", orders)))
     except (KeyError, ValueError, TypeError, RecursionError) as exc:
         raise LutError(f"{directory} has an invalid header ({exc}); re-bake it") from exc
     problem = luts.value_problem()

@@ -46,7 +46,7 @@ from .ground import GroundSource
 from ..model.geometry import clustered_nodes, distance_to_sphere_exit, radius_along, ray_length
 from .interpolation import (axis_weights, floored_log, gather, geometric_lerp_of_logs, packed_rows, resample_matrix,
                             resample_sun_geometric)
-from .optical_depth import EARTH_HIT_NET_DENSITY, below_first_row_factors
+from .optical_depth import EARTH_HIT_NET_DENSITY, below_first_row_factors, fog_column_scale, lowest_height
 from .lookup import Luts
 
 Progress = Callable[[str, float], None]
@@ -80,7 +80,7 @@ SPHERE_BAND_NODES = 49          # ... inside the band of horizons (cos-spaced)
 SPHERE_ABOVE_NODES = 25         # ... above it (angle-spaced, up to the zenith)
 SPHERE_AZIMUTHS = 64            # azimuth samples of the sphere integral (full circle)
 AMBIENT_HEIGHT_M = 20.0         # the sample's camera height for eq. (3)
-MAX_ORDERS = 10
+MAX_ORDERS = 30
 
 
 def _parallel_rows(function, count: int, progress: Progress, stage: str):
@@ -160,11 +160,12 @@ def higher_order_dims(dims):
 
 def bake_optical_depth(params: AtmosphereParams, n_height: int, n_cos: int,
                        steps: int = OPTICAL_DEPTH_STEPS, progress: Optional[Progress] = None) -> np.ndarray:
-    """(n_height, n_cos, 3) net densities to the top; EARTH_HIT_NET_DENSITY where blocked.
-    Nodes at texel centres: h = (i + 0.5) / n * H_atm, c = 2 (j + 0.5) / n - 1."""
+    """(n_height, n_cos, 4) net densities to the top, the fog's divided by fog_column_scale;
+    EARTH_HIT_NET_DENSITY where blocked. Nodes at texel centres: h = (i + 0.5) / n * H_atm,
+    c = 2 (j + 0.5) / n - 1."""
     heights = par.centre_nodes(n_height) * params.atmosphere_height
     cosines = par.centre_nodes(n_cos) * 2.0 - 1.0
-    out = np.empty((n_height, n_cos, 3), dtype=np.float32)
+    out = np.zeros((n_height, n_cos, 4), dtype=np.float32)
     rows = max(1, (1 << 19) // (n_cos * steps))
     starts = list(range(0, n_height, rows))
 
@@ -176,12 +177,19 @@ def bake_optical_depth(params: AtmosphereParams, n_height: int, n_cos: int,
         s = clustered_nodes(r, cosines[None, :], length, steps).astype(np.float32)
         node_heights = _height_along(params, h, r, cosines[None, :], s)
         weights = _trapezoid_weights(s)
-        rayleigh, mie, ozone = _density_profiles(params, node_heights)
+        rayleigh, mie, ozone, fog = _density_profiles(params, node_heights)
         heights_clamped = np.maximum(node_heights, np.float32(0.0))
         out[sl, :, 0] = _exponential_segments_integral(rayleigh, heights_clamped, params.rayleigh_scale_height, s)
         out[sl, :, 1] = _exponential_segments_integral(mie, heights_clamped, params.mie_scale_height, s)
         out[sl, :, 2] = np.einsum("...k,...k->...", ozone, weights) if ozone is not None else 0.0
-        out[sl][cosines[None, :] < par.cos_horizon(h, params.earth_radius)] = EARTH_HIT_NET_DENSITY
+        if fog is not None:
+            # Divided by the lowest point's density in the integral itself: the column of a fog
+            # 20 m thick seen from 5 km up underflows float32, its ratio does not.
+            lowest = lowest_height(params, h, cosines[None, :])
+            relative = np.exp((lowest[..., None].astype(np.float32) - heights_clamped) * np.float32(1.0 / params.fog_height))
+            out[sl, :, 3] = _exponential_segments_integral(relative, heights_clamped, params.fog_height, s)
+        hits = cosines[None, :] < par.cos_horizon(h, params.earth_radius)
+        out[sl, :, :4 if fog is not None else 3][hits] = EARTH_HIT_NET_DENSITY
 
     _parallel_rows(fill, len(starts), progress or (lambda *a: None), "optical depth")
     return out
@@ -196,19 +204,21 @@ def _height_along(params, h, r, cos_zenith, s):
 
 
 def _densities32(params, heights):
-    """(..., 3) Rayleigh, Mie and ozone densities in float32."""
-    rayleigh, mie, ozone = _density_profiles(params, heights.astype(np.float32))
-    return np.stack([rayleigh, mie, ozone if ozone is not None else np.zeros_like(mie)], axis=-1)
+    """(..., 4) Rayleigh, Mie, ozone and fog densities in float32."""
+    profiles = _density_profiles(params, heights.astype(np.float32))
+    zeros = np.zeros_like(profiles[1])
+    return np.stack([zeros if p is None else p for p in profiles], axis=-1)
 
 
 def _density_profiles(params, heights):
-    """Rayleigh, Mie and ozone densities as separate contiguous float32 arrays (None for an
-    ozone layer that is switched off)."""
+    """Rayleigh, Mie, ozone and fog densities as separate contiguous float32 arrays (None for an
+    ozone layer that is switched off and for no fog)."""
     heights = np.maximum(heights, np.float32(0.0))
     rayleigh = np.exp(heights * np.float32(-1.0 / params.rayleigh_scale_height))
     mie = np.exp(heights * np.float32(-1.0 / params.mie_scale_height))
     ozone = ozone_density(params, heights).astype(np.float32) if params.ozone else None
-    return rayleigh, mie, ozone
+    fog = np.exp(heights * np.float32(-1.0 / params.fog_height)) if params.has_fog else None
+    return rayleigh, mie, ozone, fog
 
 
 def _exponential_segments_integral(density, heights, scale_height: float, s):
@@ -243,6 +253,35 @@ class RayNodes:
     radius: np.ndarray     # (rays, K) distance to the Earth centre
     weight_rayleigh: np.ndarray   # (rays, K, C) integral of rho_R * T_view * hat_k ds
     weight_mie: np.ndarray        # (rays, K, C) same with rho_M
+    weight_fog: Optional[np.ndarray] = None   # same with rho_F (None without fog)
+
+
+# Share of a view ray's nodes spread evenly over its fog column (the rest keep the clear sky's
+# spacing): a fog 50 m thick fills the first few metres of an upward ray whose nodes are 1.5 km
+# apart, and the fog's own scattering then came from one or two substeps.
+FOG_NODE_SHARE = 0.5
+FOG_PREGRID = 512               # samples of the fog column that place those nodes
+FOG_NODE_MIN_DEPTH = 1e-3       # fog optical depth from which a ray gets the full share
+
+
+def _with_fog_nodes(params: AtmosphereParams, r, c, length, base):
+    """Nodes (rays, K) that keep ``base``'s spacing for (1 - share) of their count and spread
+    the rest evenly over the fog's column along each ray."""
+    pre = clustered_nodes(r, c, length, FOG_PREGRID)                                     # (rays, P)
+    heights = radius_along(r[:, None], c[:, None], pre) - params.earth_radius
+    density = np.exp(-np.maximum(heights, 0.0) / params.fog_height)
+    column = np.concatenate([np.zeros_like(pre[:, :1]),
+                             np.cumsum(0.5 * (density[:, 1:] + density[:, :-1]) * np.diff(pre, axis=1), axis=1)], axis=1)
+    total = column[:, -1]
+    share = FOG_NODE_SHARE * np.minimum(total * params.fog / FOG_NODE_MIN_DEPTH, 1.0)
+    t = np.linspace(0.0, 1.0, base.shape[1])
+    nodes = np.empty_like(base)
+    for ray in range(len(base)):
+        clear_measure = np.interp(pre[ray], base[ray], t)
+        measure = (1.0 - share[ray]) * clear_measure + share[ray] * column[ray] / max(total[ray], 1e-30)
+        nodes[ray] = np.interp(t, measure, pre[ray])
+    nodes[:, 0], nodes[:, -1] = 0.0, length
+    return nodes
 
 
 def view_ray_nodes(params: AtmosphereParams, media: Media, height: float, cos_view, above, n_nodes: int,
@@ -251,11 +290,15 @@ def view_ray_nodes(params: AtmosphereParams, media: Media, height: float, cos_vi
     c = np.asarray(cos_view, dtype=np.float64)
     length = ray_length(params, r, c, ~np.asarray(above))
     s = clustered_nodes(r, c, length, n_nodes, uniform_share)                 # (rays, K)
+    fog = media.has_fog
+    if fog:
+        s = _with_fog_nodes(params, r, c, length, s)
     tau = np.linspace(0.0, 1.0, substeps + 1)
     s_fine = s[:, :-1, None] + (s[:, 1:, None] - s[:, :-1, None]) * tau    # (rays, K-1, M+1)
     h_fine = radius_along(r[:, None, None], c[:, None, None], s_fine) - params.earth_radius
-    dens = _densities32(params, h_fine)                                    # (rays, K-1, M+1, 3)
-    sigma = dens @ media.extinction_matrix().astype(np.float32)             # extinction per channel
+    media_used = 4 if fog else 3
+    dens = _densities32(params, h_fine)[..., :media_used]                   # (rays, K-1, M+1, media)
+    sigma = dens @ media.extinction_matrix()[:media_used].astype(np.float32)     # extinction per channel
     ds = ((s[:, 1:] - s[:, :-1]) / substeps).astype(np.float32)[..., None, None]
     # Optical depth from the ray start: trapezoid inside each interval plus earlier intervals.
     inside = np.concatenate([np.zeros_like(sigma[:, :, :1]),
@@ -266,7 +309,7 @@ def view_ray_nodes(params: AtmosphereParams, media: Media, height: float, cos_vi
     trap[[0, -1]] = 0.5
     hat_right = tau.astype(np.float32)
     weights = []
-    for medium in (0, 1):
+    for medium in ((0, 1, 3) if fog else (0, 1)):
         g = dens[..., medium:medium + 1] * view_trans * ds * trap[None, None, :, None]
         right = np.einsum("rkmc,m->rkc", g, hat_right)
         left = g.sum(axis=2) - right
@@ -274,7 +317,7 @@ def view_ray_nodes(params: AtmosphereParams, media: Media, height: float, cos_vi
         w[:, :-1] += left
         w[:, 1:] += right
         weights.append(w)
-    return RayNodes(s, radius_along(r[:, None], c[:, None], s), weights[0], weights[1])
+    return RayNodes(s, radius_along(r[:, None], c[:, None], s), *weights)
 
 
 def _node_cos_sun(r, nodes: RayNodes, cos_sun, cos_sun_view):
@@ -295,22 +338,26 @@ def bilinear_cells(table: np.ndarray) -> np.ndarray:
 
 
 def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.ndarray,
-                progress: Progress) -> Tuple[np.ndarray, np.ndarray]:
-    """Single scattering without phase functions, (n_h, n_a, n_s, n_t, C) for Rayleigh and for
-    Mie: radiance = rayleigh * P_R(nu) + mie * P_M(nu)."""
+                progress: Progress) -> Tuple[np.ndarray, np.ndarray, Optional[np.ndarray]]:
+    """Single scattering without phase functions, (n_h, n_a, n_s, n_t, C) for Rayleigh, for
+    Mie and for the fog (None without fog): radiance = rayleigh * P_R(nu) + mie * P_M(nu)
+    + fog * P_F(nu)."""
     n_h, n_a, n_s, n_t = dims
     heights, cos_view, above, cos_sun, cos_sun_view = par.grid_axes(params, dims)
     n_odh, n_odc = optical_depth.shape[:2]
     # Net densities are interpolated and then exponentiated per channel; the 1e20 of Earth-hit
     # texels makes any cell that touches the Earth's shadow dark.
+    # Four media, so each cell's 4 x 4 coefficients fill 16 floats (the fog's are 0 without fog).
     net = np.minimum(optical_depth, np.float32(1e6))
-    padded = np.concatenate([net, np.zeros(net.shape[:2] + (1,), np.float32)], axis=-1)
-    cells, width = packed_rows(bilinear_cells(padded).reshape((n_odh - 1) * (n_odc - 1), 16))
-    extinction = media.extinction_matrix().astype(np.float32)
+    cells, width = packed_rows(bilinear_cells(net).reshape((n_odh - 1) * (n_odc - 1), 16))
+    fog = media.has_fog
+    media_used = 4 if fog else 3
+    extinction = media.extinction_matrix()[:media_used].astype(np.float32)
     k_nodes = SINGLE_NODES
     channels = media.channels
     out_r = np.empty((n_h, n_a, n_s, n_t, channels), dtype=np.float32)
     out_m = np.empty((n_h, n_a, n_s, n_t, channels), dtype=np.float32)
+    out_f = np.empty((n_h, n_a, n_s, n_t, channels), dtype=np.float32) if fog else None
     tasks = _ray_batches(n_h, n_a, k_nodes * n_s * n_t * max(1, channels // 3))
 
     def fill(task):
@@ -329,26 +376,31 @@ def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.
         basis[..., 2] = wh[:, :, None, None]
         basis[..., 3] = wc * wh[:, :, None, None]
         # Net densities medium-major, then one matmul gives every channel's optical depth.
-        sun_net = np.einsum("akstjc,akstj->castk", cell[..., :3], basis)                 # (3, a, s, t, K)
+        sun_net = np.einsum("akstjc,akstj->castk", cell[..., :media_used], basis)        # (media, a, s, t, K)
         # The table's first row sits 39 m up and the look-up clamps there: nodes lower down
         # (every ground ray ends at 0 m) need the columns' growth below it, or a low sun's
         # path misses the aerosol below 39 m (3% of its column) and ground rays at sunset read
         # 5-13% too bright.
         below = below_first_row_factors(params, node_h, n_odh).astype(np.float32)         # (a, K, 3)
-        sun_net *= below.transpose(2, 0, 1)[:, :, None, None, :]
+        sun_net *= below[..., :media_used].transpose(2, 0, 1)[:, :, None, None, :]
+        if fog:
+            sun_net[3] *= fog_column_scale(params, node_h[:, :, None, None], cos_node).transpose(0, 2, 3, 1)
         n_rays = len(nodes.s)
-        depth = (-extinction.T) @ sun_net.reshape(3, -1)                                   # (C, a*s*t*K)
+        depth = (-extinction.T) @ sun_net.reshape(media_used, -1)                          # (C, a*s*t*K)
         np.maximum(depth, np.float32(-80.0), out=depth)
         sun_trans = np.exp(depth, out=depth).reshape(channels, n_rays, n_s * n_t, k_nodes)
         # Sum over nodes for both media at once, as matmuls per ray and channel (BLAS).
         by_channel = sun_trans.transpose(1, 0, 2, 3)                                       # (a, C, s*t, K)
-        weights = np.stack([nodes.weight_rayleigh, nodes.weight_mie], axis=-1).transpose(0, 2, 1, 3)  # (a, C, K, 2)
-        integrals = np.matmul(by_channel, weights).reshape(n_rays, channels, n_s, n_t, 2)
+        ray_weights = [nodes.weight_rayleigh, nodes.weight_mie] + ([nodes.weight_fog] if fog else [])
+        weights = np.stack(ray_weights, axis=-1).transpose(0, 2, 1, 3)                     # (a, C, K, media)
+        integrals = np.matmul(by_channel, weights).reshape(n_rays, channels, n_s, n_t, len(ray_weights))
         out_r[i, rays] = media.rayleigh * integrals[..., 0].transpose(0, 2, 3, 1)
         out_m[i, rays] = media.mie * integrals[..., 1].transpose(0, 2, 3, 1)
+        if fog:
+            out_f[i, rays] = media.fog * integrals[..., 2].transpose(0, 2, 3, 1)
 
     _parallel_rows(fill, len(tasks), progress, "single scattering")
-    return out_r, out_m
+    return out_r, out_m, out_f
 
 
 # -- higher orders -----------------------------------------------------------------------
@@ -386,14 +438,18 @@ def _cosine_transforms(n_az: int):
 
 def phase_kernels(params: AtmosphereParams, mu, mu_weights, n_az: int):
     """Spectra over the azimuth difference of the discretised phase functions,
-    (n_az//2+1, n_mu_out, n_mu_in) for Rayleigh and Mie, rows normalised to integrate to 1."""
+    (n_az//2+1, n_mu_out, n_mu_in) for Rayleigh, Mie and (with fog) the fog, rows normalised to
+    integrate to 1."""
     sin = np.sqrt(np.clip(1 - mu * mu, 0, 1))
     d_az = 2 * math.pi / n_az
     cos_az = np.cos(np.arange(n_az // 2 + 1) * d_az)
     cosang = mu[:, None, None] * mu[None, :, None] + sin[:, None, None] * sin[None, :, None] * cos_az
     forward, _ = _cosine_transforms(n_az)
     kernels = []
-    for phase in (rayleigh_phase(cosang), mie_phase(cosang, params.mie_g)):
+    phases = [rayleigh_phase(cosang), mie_phase(cosang, params.mie_g)]
+    if params.has_fog:
+        phases.append(mie_phase(cosang, params.fog_g))
+    for phase in phases:
         k = phase * mu_weights[None, :, None] * d_az
         spectrum = np.einsum("vwj,mj->mvw", k, forward.astype(np.float64))
         spectrum /= spectrum[0].sum(axis=1)[None, :, None]      # m = 0 holds the full integral
@@ -401,15 +457,17 @@ def phase_kernels(params: AtmosphereParams, mu, mu_weights, n_az: int):
     return kernels
 
 
-def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az, prev_mie=None, ground=None):
-    """J~ for Rayleigh and Mie (phase-convolved radiance, per unit density and scattering
-    coefficient) on the order grid: (n_h, n_a, n_s, n_t, 2C). ``prev_n`` is the previous order
-    divided by the Rayleigh phase, like the stored tables; ``prev_mie`` (order 2) the single Mie
-    scattering without its phase, which is applied here per sphere direction. ``ground``:
-    (GroundSource, irradiance of the ground by the order before) adds the lit ground."""
+def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az, prev_mie=None, ground=None, prev_fog=None):
+    """J~ for Rayleigh, Mie and the fog (phase-convolved radiance, per unit density and
+    scattering coefficient; one per kernel) on the order grid: (n_h, n_a, n_s, n_t, media x C).
+    ``prev_n`` is the previous order divided by the Rayleigh phase, like the stored tables;
+    ``prev_mie`` and ``prev_fog`` (order 2) the single Mie and fog scattering without their
+    phases, which are applied here per sphere direction. ``ground``: (GroundSource, irradiance
+    of the ground by the order before) adds the lit ground."""
     n_h, n_a, n_s, n_t = dims_j
     channels = prev_n.shape[-1]
-    source = prev_n if prev_mie is None else np.concatenate([prev_n, prev_mie], axis=-1)
+    n_media = len(kernels)
+    source = np.concatenate([t for t in (prev_n, prev_mie, prev_fog) if t is not None], axis=-1)
     n_mu = len(mu)
     heights, cos_view, _, cos_sun, cos_sun_view = par.grid_axes(params, dims_j)
     half = n_az // 2 + 1
@@ -434,6 +492,8 @@ def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az, prev_mie=None
     scattered = radiance[..., :channels] * rayleigh_phase(ct).astype(np.float32)[None, ..., None]
     if prev_mie is not None:
         scattered += radiance[..., channels:2 * channels] * mie_phase(ct, params.mie_g).astype(np.float32)[None, ..., None]
+    if prev_fog is not None:
+        scattered += radiance[..., 2 * channels:3 * channels] * mie_phase(ct, params.fog_g).astype(np.float32)[None, ..., None]
     if ground is not None:
         ground_source, irradiance = ground
         scattered += ground_source.radiance(irradiance, ct)
@@ -442,7 +502,7 @@ def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az, prev_mie=None
     forward, inverse = _cosine_transforms(n_az)
     by_az = np.ascontiguousarray(radiance.transpose(3, 2, 0, 1, 4)).reshape(half, -1)           # (j, mu*h*s*C)
     spectrum = (forward @ by_az).reshape(half, n_mu, -1)                                       # (m, mu, h*s*C)
-    table = np.zeros((n_h, n_s, n_mu, half, 2 * channels), dtype=np.float32)
+    table = np.zeros((n_h, n_s, n_mu, half, n_media * channels), dtype=np.float32)
     for medium, kernel in enumerate(kernels):
         conv = np.matmul(kernel, spectrum).reshape(half, -1)                                   # (m, mu_v*h*s*C)
         back = (inverse @ conv).reshape(half, n_mu, n_h, n_s, channels)                       # (j, mu_v, h, s, C)
@@ -455,7 +515,7 @@ def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az, prev_mie=None
     cos_daz = np.where(denom > 1e-9, (ctn - ca * cs) / np.maximum(denom, 1e-9), 1.0)
     i_az, w_az = axis_weights(np.arccos(np.clip(cos_daz, -1, 1)) / d_az, half)               # (h, a, s, t)
     i_mu, w_mu = axis_weights(np.interp(cos_view, mu, np.arange(n_mu)), n_mu)                 # (h, a)
-    packed, width = packed_rows(table.reshape(-1, 2 * channels))
+    packed, width = packed_rows(table.reshape(-1, n_media * channels))
     base = (np.arange(n_h)[:, None, None, None] * n_s + np.arange(n_s)[None, None, :, None]) * n_mu
     out = np.zeros((n_h, n_a, n_s, n_t, width), dtype=np.float32)
     for dm, w_m in ((0, 1 - w_mu), (1, w_mu)):
@@ -464,7 +524,7 @@ def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az, prev_mie=None
             out += (w_m[:, :, None, None] * w_z)[..., None] * gather(packed, width, idx)
     # The cosine-series convolution rings slightly (a few 1e-3 of the peak) next to the sun's
     # Mie peak; scattered radiance is never negative.
-    return np.maximum(out[..., :2 * channels], 0.0)
+    return np.maximum(out[..., :n_media * channels], 0.0)
 
 
 def _integrate_order(params, media: Media, dims_j, j_table, progress: Progress, stage: str):
@@ -498,14 +558,17 @@ def _integrate_order(params, media: Media, dims_j, j_table, progress: Progress, 
         i_s, w_s = axis_weights(par.sun_zenith_to_x(cos_node, n_s), n_s)
         # Blended geometrically along the sun zenith, from the slab's logs (one per entry, not
         # two per look-up: a third of the orders' time went to those logs).
-        packed, width = packed_rows(floored_log(slab).reshape(-1, 2 * channels))
+        packed, width = packed_rows(floored_log(slab).reshape(-1, j_table.shape[-1]))
         base = ((np.arange(n_rays)[:, None, None, None] * HIGHER_NODES + np.arange(HIGHER_NODES)[None, :, None, None]) * n_t
                 + np.arange(n_t)[None, None, None, :]) * n_s                                  # (a, K, 1, t)
         j_nodes = geometric_lerp_of_logs(gather(packed, width, base + i_s), gather(packed, width, base + i_s + 1),
                                          w_s[..., None])                                   # (a, K, s, t, 2C)
         ray_r = np.einsum("akstc,akc->astc", j_nodes[..., :channels], nodes.weight_rayleigh)
         ray_m = np.einsum("akstc,akc->astc", j_nodes[..., channels:2 * channels], nodes.weight_mie)
-        out[i, rays] = (media.rayleigh * ray_r + media.mie * ray_m) / rayleigh_phase(ct)[..., None]
+        scattered = media.rayleigh * ray_r + media.mie * ray_m
+        if nodes.weight_fog is not None:
+            scattered += media.fog * np.einsum("akstc,akc->astc", j_nodes[..., 2 * channels:3 * channels], nodes.weight_fog)
+        out[i, rays] = scattered / rayleigh_phase(ct)[..., None]
 
     _parallel_rows(fill, len(tasks), progress, stage)
     return out
@@ -539,14 +602,46 @@ def grid_to_grid_matrices(params, src_dims, dst_dims):
     return mats
 
 
+# Orders until converged (orders="converged"): the bake stops after the first order that adds
+# less than CONVERGENCE of the radiance so far at every texel that is at least
+# CONVERGENCE_FLOOR of the brightest texel at the same height and sun (darker texels are out of
+# sight next to it, 13 stops down, and at twilight they converge slowest), or at MAX_ORDERS.
+CONVERGED = "converged"
+CONVERGENCE = 0.005
+CONVERGENCE_FLOOR = 1e-4
+
+
+def _whole_single(params, dims_j, single, single_mie, single_fog):
+    """Single scattering with every phase applied, divided by the Rayleigh phase (the unit of
+    the orders), on the order grid: what each order is measured against."""
+    _, cos_view, _, cos_sun, cos_sun_view = par.grid_axes(params, dims_j)
+    ct = par.clamp_sun_view(cos_view[:, :, None, None], cos_sun[None, None, :, None], cos_sun_view[None, None, None, :])
+    whole = single + single_mie * (mie_phase(ct, params.mie_g) / rayleigh_phase(ct))[..., None].astype(np.float32)
+    if single_fog is not None:
+        whole += single_fog * (mie_phase(ct, params.fog_g) / rayleigh_phase(ct))[..., None].astype(np.float32)
+    return whole
+
+
+def order_share(order: np.ndarray, whole: np.ndarray) -> float:
+    """The largest share of ``whole`` that ``order`` adds, over the texels that count
+    (CONVERGENCE_FLOOR)."""
+    brightest = whole.max(axis=(1, 3, 4), keepdims=True)                # per height and sun
+    counted = whole >= CONVERGENCE_FLOOR * brightest
+    share = np.where(counted, order / np.maximum(whole, TAIL_FLOOR), 0.0)
+    return float(share.max())
+
+
 def bake_higher_orders(params: AtmosphereParams, media: Media, dims, single_rayleigh: np.ndarray,
-                       single_mie: np.ndarray, orders: int, progress: Progress,
-                       optical_depth: np.ndarray, single_media: Optional[Media] = None, tail: bool = True
-                       ) -> Tuple[np.ndarray, list]:
+                       single_mie: np.ndarray, orders, progress: Progress,
+                       optical_depth: np.ndarray, single_media: Optional[Media] = None, tail: bool = True,
+                       single_fog: Optional[np.ndarray] = None) -> Tuple[np.ndarray, list, int]:
     """Sum of orders 2..N divided by the Rayleigh phase and the ground-ray scale, in RGB, from
     single scattering without phases at the wavelengths of ``single_media`` (default: ``media``);
     the orders themselves are integrated at the (fewer) wavelengths of ``media``: they are smooth
-    in wavelength. Per-order timings.
+    in wavelength. Per-order timings, and N.
+
+    ``orders``: N, or CONVERGED: until an order adds less than CONVERGENCE (see there), at
+    most MAX_ORDERS (a line is printed when the cap stops it).
 
     ``tail`` (N >= 3): the orders after N as a geometric series, order N x r / (1 - r) with r the
     ratio of order N to order N - 1 per texel and wavelength (at most TAIL_MAX_RATIO). Each order
@@ -559,6 +654,10 @@ def bake_higher_orders(params: AtmosphereParams, media: Media, dims, single_rayl
     spectral = spectral_resample_matrix(single_media or media, media).T.astype(np.float32)
     prev = resample_sun_geometric(single_rayleigh @ spectral, to_order_grid)
     prev_mie = resample_sun_geometric(single_mie @ spectral, to_order_grid)
+    prev_fog = None if single_fog is None else resample_sun_geometric(single_fog @ spectral, to_order_grid)
+    converge = orders == CONVERGED
+    cap = MAX_ORDERS if converge else orders
+    whole = _whole_single(params, dims_j, prev, prev_mie, prev_fog) if converge else None
     mu, mu_w = sphere_zenith_grid(params.atmosphere_height, params.earth_radius)
     kernels = phase_kernels(params, mu, mu_w, SPHERE_AZIMUTHS)
     total = np.zeros_like(prev)
@@ -568,24 +667,34 @@ def bake_higher_orders(params: AtmosphereParams, media: Media, dims, single_rayl
         heights, _, _, cos_sun, _ = par.grid_axes(params, dims_j)
         ground = GroundSource(params, media, optical_depth, heights, mu, cos_sun, dims_j)
         irradiance = ground.direct
-    for order in range(2, orders + 1):
+    before, order = None, 1
+    for order in range(2, cap + 1):
         t0 = time.perf_counter()
         # Order n scatters order n - 1 and the ground lit by order n - 2 (the sun for n = 2).
         j_table = _scattered_radiance(params, dims_j, prev, mu, kernels, SPHERE_AZIMUTHS, prev_mie,
-                                      None if ground is None else (ground, irradiance))
-        if ground is not None and order < orders:
-            irradiance = ground.sky_irradiance(prev, prev_mie)
+                                      None if ground is None else (ground, irradiance), prev_fog)
+        if ground is not None and order < cap:
+            irradiance = ground.sky_irradiance(prev, prev_mie, prev_fog)
         before = prev if prev_mie is None else None
-        prev, prev_mie = _integrate_order(params, media, dims_j, j_table, progress, f"scattering order {order}"), None
+        prev, prev_mie, prev_fog = _integrate_order(params, media, dims_j, j_table, progress,
+                                                    f"scattering order {order}"), None, None
         total += prev
         timings.append((f"order {order}", time.perf_counter() - t0))
-    if tail and orders >= 3:
+        if converge:
+            whole += prev
+            if order_share(prev, whole) < CONVERGENCE:
+                break
+    else:
+        if converge:
+            print(f"lut_gen: scattering orders stopped at the cap of {MAX_ORDERS}: the last one still added "
+                  f"{order_share(prev, whole):.1%} somewhere (the geometric tail adds the rest)", flush=True)
+    if tail and order >= 3:
         total += geometric_tail(before, prev)
     # Colour conversion first: it commutes with the resampling and leaves 3 channels, not C.
     # The ground-ray scale is divided out before resampling across heights (see geometry).
     total_rgb = np.maximum(total @ media.to_rgb.T.astype(np.float32), 0.0) / par.grid_scale(params, dims_j)
     higher = resample_sun_geometric(total_rgb, grid_to_grid_matrices(params, dims_j, dims) + [None])
-    return higher, timings
+    return higher, timings, order
 
 
 # -- ambient skylight ----------------------------------------------------------------------
@@ -597,24 +706,41 @@ def bake_ambient(luts: Luts, n: int) -> np.ndarray:
 
 # -- driver --------------------------------------------------------------------------------
 
-def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", orders: int = 4,
+CLEAR_SKY_ORDERS = 4
+
+
+def resolve_orders(params: AtmosphereParams, orders=None):
+    """The orders a bake integrates: ``orders`` checked, or for None the default: CLEAR_SKY_ORDERS
+    plus the geometric tail without fog (four orders and the tail are within 3% p99 of fifteen,
+    while converging to CONVERGENCE takes ten orders, +21 s), CONVERGED with fog (a fog of a few
+    hundred metres' visibility needs twenty or more)."""
+    if orders is None:
+        return CONVERGED if params.has_fog else CLEAR_SKY_ORDERS
+    if orders == CONVERGED:
+        return CONVERGED
+    if isinstance(orders, bool) or not isinstance(orders, (int, np.integer)) or not 1 <= orders <= MAX_ORDERS:
+        raise ValueError(f"orders must be an integer from 1 to {MAX_ORDERS} or {CONVERGED!r}, got {orders!r}")
+    return int(orders)
+
+
+def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", orders=None,
          progress: Optional[Progress] = None, tail: bool = True) -> Luts:
     """Bake every table for ``params`` (default: the clear-sky preset).
 
     ``resolution``: "default" (32 x 128 x 64 x 16), "draft" (half every dimension) or a tuple of
-    the four 4D sizes. ``orders``: scattering orders integrated into the multiple table (>= 1);
-    ``tail``: the orders after them added as a geometric series (bake_higher_orders; needs
-    orders >= 3). ``progress(stage, fraction)`` is called as stages advance.
+    the four 4D sizes. ``orders``: scattering orders integrated into the multiple table (>= 1),
+    "converged" or None (resolve_orders); ``tail``: the orders after them added as a geometric
+    series (bake_higher_orders; needs orders >= 3). ``progress(stage, fraction)`` is called as
+    stages advance.
     """
     params = (params or AtmosphereParams()).validate()
     res = resolve_resolution(resolution)
-    if isinstance(orders, bool) or not isinstance(orders, (int, np.integer)) or not 1 <= orders <= MAX_ORDERS:
-        raise ValueError(f"orders must be an integer from 1 to {MAX_ORDERS}, got {orders!r}")
+    orders = resolve_orders(params, orders)
     with tuned_for_bake():
         return _bake_stages(params, res, orders, progress or (lambda stage, fraction: None), tail)
 
 
-def _bake_stages(params: AtmosphereParams, res: Resolution, orders: int, report: Progress, tail: bool) -> Luts:
+def _bake_stages(params: AtmosphereParams, res: Resolution, orders, report: Progress, tail: bool) -> Luts:
     timings = {}
 
     t0 = time.perf_counter()
@@ -623,14 +749,15 @@ def _bake_stages(params: AtmosphereParams, res: Resolution, orders: int, report:
 
     t0 = time.perf_counter()
     media = bake_media(params)
-    single_rayleigh, single_mie = bake_single(params, media, res.scattering, optical_depth, report)
+    single_rayleigh, single_mie, single_fog = bake_single(params, media, res.scattering, optical_depth, report)
     timings["single scattering"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    if orders >= 2:
-        higher, order_times = bake_higher_orders(params, bake_media(params, "higher"), res.scattering,
-                                                 single_rayleigh, single_mie, orders, report, optical_depth,
-                                                 single_media=media, tail=tail)
+    orders_used = 1
+    if orders == CONVERGED or orders >= 2:
+        higher, order_times, orders_used = bake_higher_orders(
+            params, bake_media(params, "higher"), res.scattering, single_rayleigh, single_mie, orders, report,
+            optical_depth, single_media=media, tail=tail, single_fog=single_fog)
         timings.update(order_times)
     else:
         higher = np.zeros(res.scattering + (3,), np.float32)
@@ -642,12 +769,14 @@ def _bake_stages(params: AtmosphereParams, res: Resolution, orders: int, report:
     to_rgb = media.to_rgb.T.astype(np.float32)
     scale = par.grid_scale(params, res.scattering).astype(np.float32)
     single, single_mie = (np.maximum(table @ to_rgb, 0.0) / scale for table in (single_rayleigh, single_mie))
+    single_fog = None if single_fog is None else np.maximum(single_fog @ to_rgb, 0.0) / scale
     higher = np.maximum(higher, 0.0)
     timings["colour conversion"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
     luts = Luts(params, single, higher, optical_depth, np.zeros((res.ambient, 3), np.float32),
-                single_mie=single_mie, orders=int(orders), timings=timings, tail=bool(tail and orders >= 3))
+                single_mie=single_mie, single_fog=single_fog, orders=orders, orders_used=orders_used,
+                timings=timings, tail=bool(tail and orders_used >= 3))
     luts.ambient = bake_ambient(luts, res.ambient)
     timings["ambient skylight"] = time.perf_counter() - t0
     report("ambient skylight", 1.0)

@@ -42,7 +42,7 @@ def ground_point(params, height_m, cos_view, cos_sun, cos_sun_view):
 
 
 def net_density_to_ground(params, optical_depth, height_m, cos_view, cos_back, packed=None):
-    """(..., 3) net densities from the viewer to the ground point: both upward rays read from
+    """(..., 4) net densities from the viewer to the ground point: both upward rays read from
     the optical-depth table, the one from the ground minus the one from the viewer. ``packed``:
     interpolation.packed_rows(optical_depth), when the caller keeps it."""
     from_ground = table_net_density(params, optical_depth, 0.0, cos_back, packed)
@@ -52,7 +52,7 @@ def net_density_to_ground(params, optical_depth, height_m, cos_view, cos_back, p
 
 def direct_irradiance(params, optical_depth, extinction, cos_sun, packed=None) -> np.ndarray:
     """(..., C) sun irradiance on the ground per unit extraterrestrial sun, for the channels of
-    ``extinction`` (3 media x C); ``packed`` as for net_density_to_ground."""
+    ``extinction`` (4 media x C); ``packed`` as for net_density_to_ground."""
     c = np.asarray(cos_sun, dtype=np.float64)
     net = table_net_density(params, optical_depth, 0.0, np.maximum(c, 0.0), packed)
     return np.exp(-np.minimum(net @ extinction, 80.0)) * np.maximum(c, 0.0)[..., None]
@@ -106,9 +106,10 @@ class GroundSource:
             self._weights_for = cached = (np.array(cos_sun_view), i_s, w_s.astype(np.float32))
         return cached[1], cached[2]
 
-    def sky_irradiance(self, table_n, table_mie=None) -> np.ndarray:
+    def sky_irradiance(self, table_n, table_mie=None, table_fog=None) -> np.ndarray:
         """(s, C) irradiance at the ground from one order's radiance on the order grid (stored
-        divided by the Rayleigh phase; ``table_mie``: single Mie without phase, order 1)."""
+        divided by the Rayleigh phase; ``table_mie`` and ``table_fog``: single Mie and fog
+        without phase, order 1)."""
         n_h, n_a, n_s, n_t = self.dims
         mu, mu_w = np.polynomial.legendre.leggauss(IRRADIANCE_ZENITHS)
         mu, mu_w = 0.5 * (mu + 1.0), 0.5 * mu_w
@@ -122,4 +123,6 @@ class GroundSource:
         radiance = interpolate(table_n[0], coords) * rayleigh_phase(ct)[..., None]
         if table_mie is not None:
             radiance += interpolate(table_mie[0], coords) * mie_phase(ct, self.params.mie_g)[..., None]
+        if table_fog is not None:
+            radiance += interpolate(table_fog[0], coords) * mie_phase(ct, self.params.fog_g)[..., None]
         return np.einsum("smac,m->sc", radiance, weight)

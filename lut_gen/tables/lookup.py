@@ -39,13 +39,17 @@ TABLES = ("single", "higher", "multiple")
 SKY_IRRADIANCE_ZENITHS = 24     # quadrature of sky_irradiance (the ambient table's bake)
 SKY_IRRADIANCE_AZIMUTHS = 32
 TABLES_WITH_MIE = ("single", "multiple")
-STORED_TABLES = TABLES + ("single_mie",)      # what phase_free look-ups may read
-def with_phases(params: AtmosphereParams, stored: np.ndarray, mie: Optional[np.ndarray], cos_sun_view) -> np.ndarray:
-    """(..., 3) float32 stored * P_R + mie * P_M from the interpolated "stored" table (divided by
-    the Rayleigh phase) and single Mie table (no phase; None for tables without a Mie part)."""
+STORED_TABLES = TABLES + ("single_mie", "single_fog")      # what phase_free look-ups may read
+def with_phases(params: AtmosphereParams, stored: np.ndarray, mie: Optional[np.ndarray], cos_sun_view,
+                fog: Optional[np.ndarray] = None) -> np.ndarray:
+    """(..., 3) float32 stored * P_R + mie * P_M + fog * P_F from the interpolated "stored" table
+    (divided by the Rayleigh phase) and single Mie and fog tables (no phase; None for tables
+    without a Mie part and without fog)."""
     radiance = stored * rayleigh_phase(cos_sun_view)[..., None].astype(np.float32)
     if mie is not None:
         radiance += mie * mie_phase(cos_sun_view, params.mie_g)[..., None].astype(np.float32)
+    if fog is not None:
+        radiance += fog * mie_phase(cos_sun_view, params.fog_g)[..., None].astype(np.float32)
     return radiance
 
 
@@ -55,7 +59,9 @@ class Luts:
 
     single, higher, multiple: (n_h, n_alpha, n_phi, n_theta, 3) scattering tables / P_R
     single_mie: the same shape, single Mie scattering without its phase function
-    optical_depth: (n_height, n_cos, 3) net Rayleigh / Mie / ozone density to the top (m)
+    single_fog: the same for the fog (None without fog)
+    optical_depth: (n_height, n_cos, 4) net Rayleigh / Mie / ozone / fog density to the top (m;
+        the fog's divided by optical_depth.fog_column_scale)
     ambient: (n_cos, 3) ambient skylight irradiance on a horizontal plane at 20 m
     """
 
@@ -64,11 +70,13 @@ class Luts:
     higher: np.ndarray
     optical_depth: np.ndarray
     ambient: np.ndarray
-    orders: int = 4
+    orders: object = 4          # as asked: a count or bake.CONVERGED
+    orders_used: Optional[int] = None    # integrated (None: ``orders``)
     tail: bool = True           # the orders after ``orders`` added as a geometric series (bake.geometric_tail)
     multiple: Optional[np.ndarray] = None
     timings: dict = field(default_factory=dict)
     single_mie: Optional[np.ndarray] = None
+    single_fog: Optional[np.ndarray] = None
     # Packed copies of the 4D tables for look-ups (interpolation.packed_rows), kept once
     # keep_packed() is called: a caller that looks up every frame (the add-on's epipolar
     # tables) saves the copy each look-up makes (0.5 s a frame for the default tables), for
@@ -80,13 +88,19 @@ class Luts:
             self.multiple = (self.single + self.higher).astype(np.float32)
         if self.single_mie is None:
             self.single_mie = np.zeros_like(self.single)
+        if self.orders_used is None:
+            self.orders_used = self.orders
+        if self.optical_depth.shape[-1] == 3:     # a table without the fog's column
+            self.optical_depth = np.concatenate([self.optical_depth, np.zeros_like(self.optical_depth[..., :1])], axis=-1)
 
     def value_problem(self) -> Optional[str]:
         """What makes the tables unusable (a non-finite or negative value), None when they are
         fine. Checked after a bake and on every load: NaN in a table turns a whole render NaN.
         The optical-depth table holds EARTH_HIT_NET_DENSITY where rays hit the Earth."""
-        for name in ("single", "single_mie", "higher", "multiple", "optical_depth", "ambient"):
+        for name in ("single", "single_mie", "single_fog", "higher", "multiple", "optical_depth", "ambient"):
             table = getattr(self, name)
+            if table is None:
+                continue
             if not np.all(np.isfinite(table)):
                 return f"the {name} table holds non-finite values"
             if np.any(table < 0):
@@ -112,6 +126,8 @@ class Luts:
     def table(self, name: str) -> np.ndarray:
         if name not in STORED_TABLES:
             raise ValueError(f"table must be one of {', '.join(STORED_TABLES)}, got {name!r}")
+        if name == "single_fog" and self.single_fog is None:
+            return np.zeros_like(self.single)
         return getattr(self, name)
 
     # -- 4D scattering ---------------------------------------------------------
@@ -138,9 +154,14 @@ class Luts:
         radiance = interpolate(self.table(table), coords, geometric_axes=GEOMETRIC_AXES,
                                packed=self._packed_table(table))
         if not phase_free:
-            mie = (interpolate(self.single_mie, coords, geometric_axes=GEOMETRIC_AXES,
-                               packed=self._packed_table("single_mie")) if table in TABLES_WITH_MIE else None)
-            radiance = with_phases(self.params, radiance, mie, cos_sun_view)
+            mie = fog = None
+            if table in TABLES_WITH_MIE:
+                mie = interpolate(self.single_mie, coords, geometric_axes=GEOMETRIC_AXES,
+                                  packed=self._packed_table("single_mie"))
+                if self.single_fog is not None:
+                    fog = interpolate(self.single_fog, coords, geometric_axes=GEOMETRIC_AXES,
+                                      packed=self._packed_table("single_fog"))
+            radiance = with_phases(self.params, radiance, mie, cos_sun_view, fog)
         scale = par.look_up_scale(self.params, height_m, cos_view_zenith, above)
         return radiance * scale[..., None].astype(np.float32)
 
