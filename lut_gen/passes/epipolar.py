@@ -324,15 +324,17 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
                 integrated[sel] = S
         marched[idx] = True
 
+    initial_indices = initial_samples(n_samples, settings.initial_sample_step, settings.epipole_sampling_density)
     initial = np.zeros(n_samples, dtype=bool)
-    initial[initial_samples(n_samples, settings.initial_sample_step, settings.epipole_sampling_density)] = True
+    initial[initial_indices] = True
     run(np.broadcast_to(initial, marched.shape))
     if settings.refinement_threshold > 0:
         # Bisection: where two marched neighbours disagree, march the sample halfway between
         # them, until every disagreeing pair is adjacent. A shadow edge inside a span of 16
         # costs about log2(16) rays, not the 15 that marching the whole span cost.
+        pairs = _initial_pairs(n_slices, initial_indices)
         while True:
-            need = _disagreeing_midpoints(geometry_length, marched, t, settings.refinement_threshold)
+            pairs, need = _disagreeing_midpoints(geometry_length, pairs, t, settings.refinement_threshold)
             if not need.any():
                 break
             run(need)
@@ -342,18 +344,29 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
     return EpipolarTables(lit_length, first_lit, integrated, marched)
 
 
-def _disagreeing_midpoints(lit_length, marched, t, threshold):
-    """(slices, samples) bool: the sample halfway between each two consecutive marched samples
-    of a slice that are not adjacent and whose lit fraction L(t) / t differs by more than
-    ``threshold`` at some distance."""
-    slices, samples = np.nonzero(marched)                 # sorted by slice, then sample
-    fraction = lit_length[slices, samples, 1:] / t[1:]
-    apart = (slices[1:] == slices[:-1]) & (samples[1:] - samples[:-1] > 1)
-    differ = np.abs(fraction[1:] - fraction[:-1]).max(axis=-1) > threshold
-    pick = apart & differ
-    need = np.zeros(marched.shape, dtype=bool)
-    need[slices[:-1][pick], (samples[:-1][pick] + samples[1:][pick]) // 2] = True
-    return need
+def _initial_pairs(n_slices: int, samples):
+    """(slice, lower sample, upper sample) of each two consecutive ``samples`` of every slice."""
+    slices = np.repeat(np.arange(n_slices), len(samples) - 1)
+    return slices, np.tile(samples[:-1], n_slices), np.tile(samples[1:], n_slices)
+
+
+def _disagreeing_midpoints(lit_length, pairs, t, threshold):
+    """(the next round's pairs, (slices, samples) bool of the samples to march): the sample
+    halfway between each pair of consecutive marched samples (slice, lower, upper) that are
+    not adjacent and whose lit fraction L(t) / t differs by more than ``threshold`` at some
+    distance. Only the halves of those pairs are looked at again: a pair that agrees keeps its
+    values and stays consecutive (all pairs each round took a third of the tables' time)."""
+    slices, lower, upper = pairs
+    apart = upper - lower > 1
+    slices, lower, upper = slices[apart], lower[apart], upper[apart]
+    difference = lit_length[slices, lower, 1:] / t[1:] - lit_length[slices, upper, 1:] / t[1:]
+    pick = np.abs(difference).max(axis=-1) > threshold
+    slices, lower, upper = slices[pick], lower[pick], upper[pick]
+    middle = (lower + upper) // 2
+    need = np.zeros(lit_length.shape[:2], dtype=bool)
+    need[slices, middle] = True
+    halves = (np.concatenate([slices, slices]), np.concatenate([lower, middle]), np.concatenate([middle, upper]))
+    return halves, need
 
 
 def _fill_between_marched(table, marched):
