@@ -46,29 +46,35 @@ def show_sampling(g, gin, result, pixel_uv, sampling_image):
     return g.vlerp(result, g.combine(red, 0.0, 0.0), g.mul(dots, gin.outputs["Show Sampling"]))
 
 
-def _rows(table) -> np.ndarray:
-    """(slices + 1, samples, steps[, channels]) -> RGBA pixels ((slices + 1) steps, samples, 4):
-    row i * steps + k holds slice node i at distance node k."""
-    table = np.asarray(table, dtype=np.float32)
-    if table.ndim == 3:
-        table = table[..., None]
-    n_slices, n_samples, steps, channels = table.shape
-    pixels = np.zeros((n_slices, steps, n_samples, 4), dtype=np.float32)
-    pixels[..., :channels] = table.transpose(0, 2, 1, 3)
+def _rows(channels) -> np.ndarray:
+    """Up to three (slices + 1, samples, steps) arrays, one per colour channel -> RGBA pixels
+    ((slices + 1) steps, samples, 4): row i * steps + k holds slice node i at distance node k;
+    the channels not given 0, alpha 1. Each channel goes straight into the pixels: stacking
+    the channels first and zeroing the pixels copied the lit tables twice more (0.03 s)."""
+    n_slices, n_samples, steps = np.shape(channels[0])
+    pixels = np.empty((n_slices, steps, n_samples, 4), dtype=np.float32)
+    for channel, table in enumerate(channels):
+        pixels[..., channel] = np.swapaxes(table, 1, 2)
+    pixels[..., len(channels):3] = 0.0
     pixels[..., 3] = 1.0
     return pixels.reshape(n_slices * steps, n_samples, 4)
 
 
+def _channels(table) -> list:
+    """The channels of a (..., channels) table as a list of views."""
+    return [table[..., c] for c in range(table.shape[-1])]
+
+
 def pack(tables: epipolar.EpipolarTables):
     """(lit RGBA pixels ((S+1) K, N, 4), integral RGBA pixels or None), rows bottom to top."""
-    lit = _rows(np.stack([tables.lit_length, tables.first_lit], axis=-1))
-    return lit, None if tables.integrated is None else _rows(tables.integrated)
+    lit = _rows([tables.lit_length, tables.first_lit])
+    return lit, None if tables.integrated is None else _rows(_channels(tables.integrated))
 
 
 def pack_air(tables: epipolar_air.AirTables) -> dict:
     """{image name: RGBA pixels} of the in-scattering tables."""
     arrays = {"single": tables.rayleigh, "single_mie": tables.mie, "higher": tables.higher}
-    return {names.EPIPOLAR_AIR_IMAGES[name]: _rows(table) for name, table in arrays.items()}
+    return {names.EPIPOLAR_AIR_IMAGES[name]: _rows(_channels(table)) for name, table in arrays.items()}
 
 
 def image_size(slices: int, samples: int, steps: int):
