@@ -269,10 +269,14 @@ def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Ca
     # The first shadow edge between its two samples, as the brute-force march places it
     # (lut_gen.passes.shaft_boundary): intervals j - 1 and j meet at t[j].
     j, before, after = shaft_boundary.first_transition(lit)
-    crossed = (j < len(centres))[:, None]
+    crossed = j < len(centres)
     safe = np.clip(j, 1, len(centres) - 1)
-    edge = shaft_boundary.refine(is_lit, camera.position, directions, centres[safe - 1], centres[safe], before, after)
-    edge, boundary = edge[:, None], t[safe][:, None]
+    # Only the rays that cross an edge are refined (the others' edge is never read).
+    edge = t[safe]
+    if crossed.any():
+        edge[crossed] = shaft_boundary.refine(is_lit, camera.position, directions[crossed], centres[safe - 1][crossed],
+                                              centres[safe][crossed], before[crossed], after[crossed])
+    crossed, edge, boundary = crossed[:, None], edge[:, None], t[safe][:, None]
     lit_length = lit_length + np.where(crossed, (before - after)[:, None] * (np.minimum(t, edge) - np.minimum(t, boundary)), 0.0)
     starts_shadowed = crossed & (lit[:, :1] < shaft_boundary.HALF)
     first_lit = np.where(starts_shadowed, np.minimum(t[None, :], edge), first_lit)
