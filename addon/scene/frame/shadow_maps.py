@@ -42,16 +42,20 @@ def scene_triangles(depsgraph) -> np.ndarray:
             local[key] = _local_corners(obj)
         if local[key] is not None:
             placed.setdefault(key, []).append(np.array(instance.matrix_world, dtype=np.float64))
-    chunks = []
-    for key, matrices in placed.items():
+    # Every instance's corners written once, straight into the result: adding the translations
+    # into a temporary and concatenating copied the forest's 0.66 M triangles twice (0.08 s).
+    counts = [len(local[key]) * len(matrices) for key, matrices in placed.items()]
+    triangles = np.empty((sum(counts), 3))
+    for (key, matrices), end in zip(placed.items(), np.cumsum(counts)):
         matrices = np.stack(matrices)
         corners = local[key]
         # All instances' rotations side by side, (3, 3N): one matrix product places every
         # corner of every instance (einsum took 0.4 s for the forest, this 0.04 s).
         rotations = matrices[:, :3, :3].transpose(2, 0, 1).reshape(3, -1)
         world = (corners @ rotations).reshape(len(corners), len(matrices), 3).transpose(1, 0, 2)
-        chunks.append((world + matrices[:, None, :3, 3]).reshape(-1, 3, 3))
-    return np.concatenate(chunks) if chunks else np.zeros((0, 3, 3))
+        out = triangles[end - len(corners) * len(matrices):end].reshape(len(matrices), len(corners), 3)
+        np.add(world, matrices[:, None, :3, 3], out=out)
+    return triangles.reshape(-1, 3, 3)
 
 
 def _local_corners(obj):
