@@ -176,25 +176,32 @@ def _rasterize(out, x, y, d, low, high, center, half, candidates):
     d0 = d[0]
     depth_plane = planes[1] * (d[1] - d0) + planes[2] * (d[2] - d0)         # (3 coefficients, M)
     box = _Boxes(lo_x, lo_y, hi_x - lo_x + 1, hi_y - lo_y + 1)
+    # Scanline: per triangle and row of its box, the texel span inside all three edges. Large
+    # triangles then fill their boxes masked to those spans; the rest scatter only the texels
+    # they cover.
     big = box.width * box.height >= DENSE_TEXELS
-    for t in np.flatnonzero(big):
-        _fill(out, planes[..., t:t + 1], depth_plane[:, t], d0[t], box.take(slice(t, t + 1)))
-    # Scanline: per triangle and row of its box, the texel span inside all three edges, so only
-    # covered texels are visited. Triangles go in groups of similar box height (each group's
-    # rows a (triangles, rows) broadcast), in batches of at most MAX_CANDIDATES box texels
-    # (4 M took 1.3x as long: temporaries out of the cache).
-    small = np.flatnonzero(~big)
-    group = np.frexp(box.height[small] - 1)[1]          # ceil(log2(height)): heights in (rows / 2, rows]
-    order = small[np.argsort(group, kind="stable")]
+    for batch, rows in _height_batches(box, np.flatnonzero(big)):
+        x_lo, span = _row_spans(planes[..., batch], box.take(batch), rows)
+        for t, first, count in zip(batch, x_lo, span):
+            _fill(out, first, count, depth_plane[:, t], d0[t], box.take(slice(t, t + 1)))
+    for batch, rows in _height_batches(box, np.flatnonzero(~big)):
+        _scan(depth, resolution, planes[..., batch], depth_plane[:, batch], d0[batch], box.take(batch), rows)
+
+
+def _height_batches(box, which):
+    """(triangle indices, rows) of the triangles ``which``: groups of similar box height, each
+    group's rows a (triangles, rows) broadcast with ``rows`` the power of two at or above their
+    heights, in batches of at most MAX_CANDIDATES box texels (4 M took 1.3x as long: the
+    temporaries left the cache)."""
+    group = np.frexp(box.height[which] - 1)[1]          # ceil(log2(height)): heights in (rows / 2, rows]
+    order = which[np.argsort(group, kind="stable")]
     group = np.sort(group)
     box_start = np.concatenate([[0], np.cumsum((box.width * box.height)[order])])
     first = 0
     while first < len(order):
         last = int(np.searchsorted(box_start, box_start[first] + MAX_CANDIDATES, side="right")) - 1
         last = min(max(last, first + 1), int(np.searchsorted(group, group[first], side="right")))
-        batch = order[first:last]
-        _scan(depth, resolution, planes[..., batch], depth_plane[:, batch], d0[batch], box.take(batch),
-              1 << group[first])
+        yield order[first:last], 1 << int(group[first])
         first = last
 
 
@@ -266,14 +273,15 @@ def _scan(depth, resolution, planes, depth_plane, d0, box: _Boxes, rows: int):
     np.maximum.at(depth, flat, value.astype(np.float32))
 
 
-def _fill(out, planes, depth_plane, d0, box: _Boxes):
+def _fill(out, x_lo, span, depth_plane, d0, box: _Boxes):
     """Max the sun depth of one large triangle into ``out`` (res, res) over its whole box at
-    once, masked to its row spans: no per-texel indices or scatter (3-4x faster than the scan
-    for the ground's and near trees' triangles, which hold most of a map's texels). The depth
-    is the sum of a per-column and a per-row part in float32, within 2 float32 steps of the
-    scan's (far below the depth bias)."""
+    once, masked to its row spans (first column ``x_lo``, ``span`` texels, per box row and
+    more): no per-texel indices or scatter (3-4x faster than the scan for the ground's and
+    near trees' triangles, which hold most of a map's texels). The depth is the sum of a
+    per-column and a per-row part in float32, within 2 float32 steps of the scan's (far below
+    the depth bias)."""
     y, x, height, width = int(box.lo_y[0]), int(box.lo_x[0]), int(box.height[0]), int(box.width[0])
-    x_lo, span = (v[0] for v in _row_spans(planes, box, height))
+    x_lo, span = x_lo[:height], span[:height]
     columns = np.arange(width)
     inside = (columns >= x_lo[:, None]) & (columns < (x_lo + span)[:, None])
     along = (d0 + depth_plane[0] * columns).astype(np.float32)
