@@ -18,8 +18,6 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
-from collections import defaultdict
 from importlib import import_module
 from pathlib import Path
 
@@ -29,6 +27,8 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "scripts"))
 sys.path.insert(0, str(ROOT / "bench"))
 
+from bench_shaft_pass import StageTimer     # noqa: E402  (bench/ on the path)
+
 # (module under the package, function, stage); stages nest: "frame update" holds them all.
 STAGES = (("addon.scene.frame.shadow_maps", "scene_triangles", "gather triangles"),
           ("lut_gen.passes.shadow_map", "render_cascades", "rasterise"),
@@ -37,40 +37,29 @@ STAGES = (("addon.scene.frame.shadow_maps", "scene_triangles", "gather triangles
           ("lut_gen.passes.epipolar", "build_tables", "lit-length tables"),
           ("lut_gen.passes.epipolar_air", "build", "in-scattering"),
           ("addon.nodes.epipolar", "pack", "pack tables"),
-          ("addon.scene.frame.epipolar_tables", "update", "epipolar total"),
           ("addon.scene.frame.frame_update", "update_frame", "frame update"))
 PRINTED = ("gather triangles", "rasterise", "shadow images", "min/max maps", "lit-length tables", "in-scattering",
            "pack tables", "other", "frame update")
 
 
-class StageTimer:
-    """Wraps a package's module functions so each call's time adds to its stage."""
+def stage_timer(package) -> StageTimer:
+    """A StageTimer (bench_shaft_pass's) over ``package``'s STAGES functions."""
+    timer = StageTimer()
+    for module_name, attribute, stage in STAGES:
+        timer.wrap(import_module(f"{package}.{module_name}"), attribute, stage)
+    return timer
 
-    def __init__(self, package):
-        self.seconds = defaultdict(float)
-        for module_name, attribute, stage in STAGES:
-            self._wrap(import_module(f"{package}.{module_name}"), attribute, stage)
 
-    def _wrap(self, module, attribute, stage):
-        original = getattr(module, attribute)
-
-        def timed(*args, **kwargs):
-            start = time.perf_counter()
-            try:
-                return original(*args, **kwargs)
-            finally:
-                self.seconds[stage] += time.perf_counter() - start
-        setattr(module, attribute, timed)
-
-    def frame(self, package, scene, depsgraph) -> dict:
-        """{stage: seconds} of one frame update from a cleared cache; "other" is the rest."""
-        import_module(f"{package}.addon.scene.frame.frame_update").forget()
-        self.seconds.clear()
-        import_module(f"{package}.addon.scene.frame.frame_update").update_frame(scene, depsgraph)
-        seconds = dict(self.seconds)
-        inner = [s for s in PRINTED[:-2] if s != "min/max maps"]     # min/max runs inside the lit-length tables
-        seconds["other"] = seconds["frame update"] - sum(seconds.get(s, 0.0) for s in inner)
-        return seconds
+def frame_seconds(timer, package, scene, depsgraph) -> dict:
+    """{stage: seconds} of one frame update from a cleared cache; "other" is the rest."""
+    frame_update = import_module(f"{package}.addon.scene.frame.frame_update")
+    frame_update.forget()
+    timer.reset()
+    frame_update.update_frame(scene, depsgraph)
+    seconds = dict(timer.seconds)
+    inner = [s for s in PRINTED[:-2] if s != "min/max maps"]     # min/max runs inside the lit-length tables
+    seconds["other"] = seconds["frame update"] - sum(seconds.get(s, 0.0) for s in inner)
+    return seconds
 
 
 def baseline_package(revision, name="ols_baseline"):
@@ -103,7 +92,7 @@ def main():
     if args.against != "none":
         name, worktree = baseline_package(args.against)
         sides.insert(0, ("base", name))
-    timers = {label: StageTimer(package) for label, package in sides}
+    timers = {label: stage_timer(package) for label, package in sides}
     width, height = (int(v) for v in args.size.split("x"))
     output = Path(tempfile.mkdtemp(prefix="ols_bench_")) / "frame.png"
     print(f"{os.cpu_count()} cores; baseline {args.against}; {args.size}, {args.resolution} texels; median of "
@@ -116,11 +105,11 @@ def main():
             import_module(f"{pkg.__name__}.addon.scene.setup.wiring").match_light_shaft_layout(scene)
             depsgraph = bpy.context.evaluated_depsgraph_get()
             for label, package in sides:                            # warm-up: first-call costs
-                timers[label].frame(package, scene, depsgraph)
+                frame_seconds(timers[label], package, scene, depsgraph)
             runs = {label: [] for label, _ in sides}
             for _ in range(args.frames):
                 for label, package in sides:
-                    runs[label].append(timers[label].frame(package, scene, depsgraph))
+                    runs[label].append(frame_seconds(timers[label], package, scene, depsgraph))
             _print(scene_name, runs)
     finally:
         if worktree is not None:
