@@ -36,6 +36,9 @@ three phase functions by the media's (channel-summed) share of the scattering th
 channel's weight then correcting for its own kernel; on the ground, cosine-weighted. Paths
 end on leaving the top of the atmosphere, or by Russian roulette once their weights are small.
 
+No fog layer (AtmosphereParams.fog_visibility): ``radiance`` and ``irradiance`` refuse params
+with fog (lut_gen.verify.monte_carlo traces it); ``direct_transmittance`` includes it.
+
 The random walk does not depend on the sun: one walk scores every sun direction at once, so
 that a view is traced once for all the suns it is checked against. All orders are included
 (the atmosphere's too, unlike monte_carlo's ``orders``); the sun's direct beam is not (a delta,
@@ -131,7 +134,7 @@ class _Medium:
     def coefficients(self, points, in_cloud):
         """(N, 3) Rayleigh and Mie scattering, cloud scattering (N,) and extinction (N, 3)."""
         r = mc._norm(points)
-        beta_r, beta_m = self.air.scattering(r)
+        beta_r, beta_m, _ = self.air.scattering(r)  # no fog here (_checked)
         dens = [d if d is not None else np.zeros_like(r) for d in self.air.densities(r)]
         cloud = np.where(in_cloud, self.density, 0.0)
         extinction = np.stack(dens, axis=-1) @ self.air.extinction + cloud[:, None]
@@ -191,7 +194,7 @@ def _air_transmittance(air: mc._Media, points, suns):
     s = mid[..., None] + half[..., None] * x
     rr = r[:, None, None]
     radius = np.sqrt(np.maximum(rr * rr + s * (s + 2.0 * (r * mu)[:, None, None]), 0.0))
-    net = np.zeros((r.size, 3))
+    net = np.zeros((r.size, air.extinction.shape[0]))
     for m, density in enumerate(air.densities(radius)):
         if density is not None:
             net[:, m] = ((density @ w) * half).sum(axis=1)
@@ -359,6 +362,9 @@ def _checked(params: AtmosphereParams, paths: int) -> int:
     if params.spectral:
         raise ValueError("the cloud path tracer needs three-channel params (spectral=False); "
                          "convert with lut_gen.model.spectrum.triple_params")
+    if params.has_fog:
+        raise ValueError("the cloud path tracer has no fog layer (its kernel and phase sampling know Rayleigh, "
+                         "Mie and the cloud only); trace fog with lut_gen.verify.monte_carlo")
     if int(paths) < 2:
         raise ValueError(f"need paths >= 2, got {paths}")
     return int(paths)

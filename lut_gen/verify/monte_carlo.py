@@ -44,10 +44,19 @@ the vertices. Forced collisions mean no path leaves the atmosphere early; paths 
 of paths is forced into the atmosphere (the ``atmosphere`` part), a second one starts on the
 ground point the view ray hits (the ``ground`` part).
 
+Fog (``params.has_fog``): a fourth medium, grey, that only scatters (scattering = extinction =
+params.fog x exp(-h / fog_height)) with its own Cornette-Shanks phase function (fog_g). A
+collision scatters off Rayleigh, Mie or fog in proportion to their channel-summed scattering
+coefficients there (the fog's direction drawn with the Mie sampler at fog_g; the weight is the
+three media's kernel over the mixture pdf), and next-event estimation sums the three phase
+terms. Without fog every array and random draw is what it was before the fog, bit for bit.
+
 Optical depths are integrated numerically: every ray is cut at its lowest point (where the
 density peaks), each side into intervals growing geometrically away from it, and every
 interval gets Gauss-Legendre quadrature (the crossings of the ozone tent's kink heights are
-nodes too, so every interval's integrand is smooth). Collision distances are drawn from the
+nodes too, so every interval's integrand is smooth; with fog, so are the crossings of the
+heights FOG_NODE_HEIGHTS fog scale heights above the ground, which resolve a fog of any scale
+height). Collision distances are drawn from the
 segment's optical depth taken as linear between nodes (piecewise constant extinction), with
 that approximation's exact pdf, and weighted with the transmittance integrated up to the
 distance drawn, so the approximation adds no bias. The quadrature's is ~1e-5: optical depths
@@ -66,10 +75,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model.profiles import (OZONE_HALF_WIDTH_M, OZONE_PEAK_HEIGHT_M, mie_density, ozone_density, rayleigh_density)
+from ..model.profiles import (OZONE_HALF_WIDTH_M, OZONE_PEAK_HEIGHT_M, fog_density, mie_density, ozone_density,
+                              rayleigh_density)
 from ..model.atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
 
-__all__ = ["OrderRadiance", "radiance_by_order", "DEFAULT_PATHS"]
+__all__ = ["OrderRadiance", "radiance_by_order", "irradiance_by_order", "DEFAULT_PATHS"]
 
 DEFAULT_PATHS = 16_384
 # Paths traced together; bounds the work arrays to a few tens of MB.
@@ -86,6 +96,10 @@ MAX_GROUND_PROBABILITY = 0.9
 # Length scale of the geometric interval growth: intervals start about this long at the
 # lowest point, well under the Mie scale height, and grow by a constant factor from there.
 FIRST_INTERVAL_M = 100.0
+# With fog: extra nodes where rays cross these heights, in fog scale heights above the ground
+# (the fog's density changes by at most e^0.5 between two of them below 6 scale heights, and
+# e^-40 of it is left above the last).
+FOG_NODE_HEIGHTS = (0.25, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 13.0, 17.0, 22.0, 30.0, 40.0)
 
 
 @dataclass(frozen=True)
@@ -129,14 +143,21 @@ class _Media:
     params: AtmosphereParams
     rayleigh: np.ndarray     # (3,) scattering = extinction
     mie: np.ndarray          # (3,) scattering
-    extinction: np.ndarray   # (3 media: Rayleigh, Mie, ozone, 3 channels)
+    extinction: np.ndarray   # (media: Rayleigh, Mie, ozone and, with fog only, fog; 3 channels)
+    fog: np.ndarray          # (3,) fog scattering = extinction (grey; 0 without fog)
 
     @classmethod
     def of(cls, params: AtmosphereParams) -> "_Media":
         rayleigh = np.asarray(params.rayleigh_scattering, dtype=np.float64)
         mie = np.asarray(params.mie_scattering, dtype=np.float64) * params.aerosol_density
         ozone = np.asarray(params.ozone_absorption, dtype=np.float64) * (1.0 if params.ozone else 0.0)
-        return cls(params, rayleigh, mie, np.stack([rayleigh, mie * (1.0 + params.aerosol_absorption), ozone]))
+        fog = np.full(3, params.fog if params.has_fog else 0.0)
+        rows = [rayleigh, mie * (1.0 + params.aerosol_absorption), ozone] + ([fog] if params.has_fog else [])
+        return cls(params, rayleigh, mie, np.stack(rows), fog)
+
+    @property
+    def has_fog(self) -> bool:
+        return bool(self.params.has_fog)
 
     @property
     def earth_radius(self) -> float:
@@ -147,16 +168,20 @@ class _Media:
         return self.params.top_radius
 
     def densities(self, radius: np.ndarray):
-        """Rayleigh, Mie and ozone densities at the given radii (ozone None without ozone)."""
+        """Rayleigh, Mie, ozone and (with fog only) fog densities at the given radii, one per row
+        of ``extinction`` (ozone None without ozone)."""
         h = np.maximum(radius - self.earth_radius, 0.0)
         ozone = ozone_density(self.params, h) if self.params.ozone else None
-        return rayleigh_density(self.params, h), mie_density(self.params, h), ozone
+        out = (rayleigh_density(self.params, h), mie_density(self.params, h), ozone)
+        return out + (fog_density(self.params, h),) if self.has_fog else out
 
     def scattering(self, radius: np.ndarray):
-        """(N, 3) Rayleigh and (N, 3) Mie scattering coefficients per channel at the radii."""
+        """(N, 3) Rayleigh, (N, 3) Mie and (N, 3) fog scattering coefficients per channel at the
+        radii (the fog's None without fog)."""
         h = np.maximum(radius - self.earth_radius, 0.0)
+        fog = fog_density(self.params, h)[:, None] * self.fog if self.has_fog else None
         return (rayleigh_density(self.params, h)[:, None] * self.rayleigh,
-                mie_density(self.params, h)[:, None] * self.mie)
+                mie_density(self.params, h)[:, None] * self.mie, fog)
 
 
 # -- geometry ----------------------------------------------------------------------------------
@@ -233,28 +258,47 @@ def _ozone_kinks(media: _Media, r, mu, length) -> np.ndarray:
     return np.stack(out, axis=-1)
 
 
+def _fog_crossings(media: _Media, r, mu, length) -> np.ndarray:
+    """(N, 2 len(FOG_NODE_HEIGHTS)) distances where the rays cross the heights of
+    FOG_NODE_HEIGHTS fog scale heights above the ground, clamped into [0, length] (0 where a
+    crossing does not exist): nodes that resolve a fog layer of any scale height."""
+    out = []
+    rmu = r * mu
+    for c in FOG_NODE_HEIGHTS:
+        rc = media.earth_radius + c * media.params.fog_height
+        disc = rmu * rmu + (rc - r) * (rc + r)
+        root = np.sqrt(np.maximum(disc, 0.0))
+        for sign in (-1.0, 1.0):
+            out.append(np.where(disc > 0.0, np.clip(-rmu + sign * root, 0.0, length), 0.0))
+    return np.stack(out, axis=-1)
+
+
 def _ray_nodes(media: _Media, r, mu, length, n: int) -> np.ndarray:
     """(N, 2n+1) increasing distances along rays [0, length], clustered at the lowest point,
-    plus the ozone kink crossings when there is ozone (intervals of length 0 are harmless)."""
+    plus the ozone kink crossings when there is ozone and the fog's height crossings with fog
+    (intervals of length 0 are harmless)."""
     s_low = np.clip(-r * mu, 0.0, length)
     before = s_low[:, None] - _side_offsets(s_low, n)[:, ::-1]
     after = s_low[:, None] + _side_offsets(length - s_low, n)[:, 1:]
     nodes = np.concatenate([before, after], axis=1)
     if media.params.ozone:
         nodes = np.sort(np.concatenate([nodes, _ozone_kinks(media, r, mu, length)], axis=1), axis=1)
+    if media.has_fog:
+        nodes = np.sort(np.concatenate([nodes, _fog_crossings(media, r, mu, length)], axis=1), axis=1)
     return nodes
 
 
 def _interval_net_densities(media: _Media, r, mu, nodes, gauss: int) -> np.ndarray:
-    """(N, intervals, 3 media): densities integrated over every interval between the nodes
-    of rays from radius r with zenith cosine mu (Gauss-Legendre, ``gauss`` points)."""
+    """(N, intervals, media): densities integrated over every interval between the nodes
+    of rays from radius r with zenith cosine mu (Gauss-Legendre, ``gauss`` points), one per
+    row of ``media.extinction``."""
     x, w = np.polynomial.legendre.leggauss(gauss)
     mid = 0.5 * (nodes[:, 1:] + nodes[:, :-1])
     half = 0.5 * (nodes[:, 1:] - nodes[:, :-1])
     s = mid[..., None] + half[..., None] * x
     rr = r[:, None, None]
     radius = np.sqrt(np.maximum(rr * rr + s * (s + 2.0 * (r * mu)[:, None, None]), 0.0))
-    out = np.zeros(half.shape + (3,))
+    out = np.zeros(half.shape + (media.extinction.shape[0],))
     for m, density in enumerate(media.densities(radius)):
         if density is not None:
             out[..., m] = (density @ w) * half
@@ -396,11 +440,36 @@ def _sample_mie_cos(rng, n: int, g: float) -> np.ndarray:
     return out
 
 
+def _scatter_with_fog(media: _Media, points, direction, rng):
+    """``_scatter_atmosphere`` with the fog: Rayleigh, Mie or fog picked by their channel-summed
+    share of the scattering at the point, the fog's Cornette-Shanks phase (fog_g) drawn with the
+    Mie sampler; the proposal pdf is the mixture of the three phase functions."""
+    n = points.shape[0]
+    beta_r, beta_m, beta_f = media.scattering(_norm(points))
+    shares = np.stack([beta_r.sum(axis=1), beta_m.sum(axis=1), beta_f.sum(axis=1)], axis=1)
+    total = shares.sum(axis=1, keepdims=True)
+    shares = np.where(total > 0.0, shares / np.where(total > 0.0, total, 1.0), np.array([1.0, 0.0, 0.0]))
+    pick = (rng.random(n)[:, None] > np.cumsum(shares, axis=1)).sum(axis=1).clip(0, 2)
+    cos_theta = np.empty(n)
+    g_mie, g_fog = media.params.mie_g, media.params.fog_g
+    for k, sampler in enumerate((lambda m: _sample_rayleigh_cos(rng, m), lambda m: _sample_mie_cos(rng, m, g_mie),
+                                 lambda m: _sample_mie_cos(rng, m, g_fog))):
+        mask = pick == k
+        if mask.any():
+            cos_theta[mask] = sampler(int(mask.sum()))
+    phase_r, phase_m, phase_f = rayleigh_phase(cos_theta), mie_phase(cos_theta, g_mie), mie_phase(cos_theta, g_fog)
+    pdf = shares[:, 0] * phase_r + shares[:, 1] * phase_m + shares[:, 2] * phase_f
+    kernel = beta_r * phase_r[:, None] + beta_m * phase_m[:, None] + beta_f * phase_f[:, None]
+    return _around(direction, cos_theta, rng), kernel / pdf[:, None]
+
+
 def _scatter_atmosphere(media: _Media, points, direction, rng):
     """New directions at atmospheric vertices and the weight factors (N, 3): the scattering
     coefficient x phase function of every channel over the channel-free proposal pdf."""
+    if media.has_fog:
+        return _scatter_with_fog(media, points, direction, rng)
     n = points.shape[0]
-    beta_r, beta_m = media.scattering(_norm(points))
+    beta_r, beta_m, _ = media.scattering(_norm(points))
     total_r, total_m = beta_r.sum(axis=1), beta_m.sum(axis=1)
     p_rayleigh = np.divide(total_r, total_r + total_m, out=np.ones(n), where=total_r + total_m > 0.0)
     use_rayleigh = rng.random(n) < p_rayleigh
@@ -424,9 +493,11 @@ def _scatter_ground(media: _Media, points, rng):
 def _sun_events(media: _Media, points, direction, on_ground, sun) -> np.ndarray:
     """(N, 3) radiance towards the previous vertex per unit path weight, from the sun alone."""
     t_sun = _sun_transmittance(media, points, sun)
-    beta_r, beta_m = media.scattering(_norm(points))
+    beta_r, beta_m, beta_f = media.scattering(_norm(points))
     nu = np.clip(direction @ sun, -1.0, 1.0)
     in_air = beta_r * rayleigh_phase(nu)[:, None] + beta_m * mie_phase(nu, media.params.mie_g)[:, None]
+    if beta_f is not None:
+        in_air = in_air + beta_f * mie_phase(nu, media.params.fog_g)[:, None]
     cos_sun = np.maximum(points @ sun / _norm(points), 0.0)
     on_earth = (media.params.ground_albedo / math.pi * cos_sun)[:, None]
     return np.where(on_ground[:, None], on_earth, in_air) * t_sun
@@ -437,13 +508,17 @@ def _sun_events(media: _Media, points, direction, on_ground, sun) -> np.ndarray:
 def _trace(media: _Media, camera, view, sun, ground_first: bool, orders: int, n: int, rng) -> np.ndarray:
     """(n, orders, 3) contributions of n paths from the viewer. ``ground_first``: the first
     vertex is the ground point the view ray hits (weight T(view ray)); else a forced
-    collision on the view ray."""
+    collision on the view ray. ``view``: one direction (3,) for every path, or one per path
+    (n, 3)."""
     out = np.zeros((n, orders, 3))
     ids = np.arange(n)
-    # Every path starts on the same view ray: integrate it once.
-    ray = _segment(media, camera[None], view[None])
-    seg = _Segment(*(np.repeat(a, n, axis=0) for a in (ray.origin, ray.direction, ray.r, ray.mu,
-                                                       ray.hits_ground, ray.nodes, ray.depth)))
+    if view.ndim == 2:
+        seg = _segment(media, np.repeat(camera[None], n, axis=0), view)
+    else:
+        # Every path starts on the same view ray: integrate it once.
+        ray = _segment(media, camera[None], view[None])
+        seg = _Segment(*(np.repeat(a, n, axis=0) for a in (ray.origin, ray.direction, ray.r, ray.mu,
+                                                           ray.hits_ground, ray.nodes, ray.depth)))
     direction = seg.direction
     first_prob = np.where(seg.hits_ground, 1.0, 0.0) if ground_first else np.zeros(n)
     points, on_ground, weight = _next_vertex(media, seg, first_prob, rng)
@@ -533,6 +608,42 @@ def radiance_by_order(params: AtmosphereParams, height_m: float, cos_view_zenith
             if ground_first and not sees_ground:
                 continue
             c = _trace(media, camera, view, sun, ground_first, orders, n, rng)
+            sums[part][0] += c.sum(axis=0)
+            sums[part][1] += np.einsum("pic,pjc->ijc", c, c)
+    atmosphere, atmosphere_cov = _mean_and_cov(*sums["atmosphere"], paths)
+    ground, ground_cov = _mean_and_cov(*sums["ground"], paths)
+    return OrderRadiance(atmosphere, ground, atmosphere_cov, ground_cov, paths)
+
+
+def irradiance_by_order(params: AtmosphereParams, height_m: float, cos_sun_zenith: float, facing_up: bool = True,
+                        orders: int = 4, paths: int = DEFAULT_PATHS, seed: int = 0) -> OrderRadiance:
+    """Diffuse irradiance on a horizontal plane at ``height_m`` facing up (the sky above it) or
+    down (``facing_up=False``: the air and the ground below it), per unit extraterrestrial sun
+    irradiance, by order: pi x the mean radiance (``radiance_by_order``'s orders and parts) of
+    ``paths`` cosine-weighted lines of sight about the plane's normal (each population, the
+    ``atmosphere`` part and the ``ground`` part of the lines of sight that hit the ground, traced
+    on the same lines of sight). The sun's direct beam is not included (add cos_sun_zenith x
+    T_sun for a plane facing up). Energy: in a medium that only scatters, over a ground of
+    albedo 1, all the light leaves through the top, so the ``total`` of all orders facing down
+    above the media is cos_sun_zenith."""
+    if params.spectral:
+        raise ValueError("irradiance_by_order needs three-channel params (spectral=False); "
+                         "convert with lut_gen.model.spectrum.triple_params")
+    if int(orders) < 1 or int(paths) < 2:
+        raise ValueError(f"need orders >= 1 and paths >= 2, got {orders}, {paths}")
+    orders, paths = int(orders), int(paths)
+    media = _Media.of(params)
+    camera, _, sun = _view_geometry(params, height_m, 1.0, cos_sun_zenith, cos_sun_zenith)
+    normal = np.array([0.0, 0.0, 1.0 if facing_up else -1.0])
+    rng = np.random.default_rng(seed)
+    sums = {part: [np.zeros((orders, 3)), np.zeros((orders, orders, 3))] for part in ("atmosphere", "ground")}
+    for start in range(0, paths, BATCH_PATHS):
+        n = min(BATCH_PATHS, paths - start)
+        views = _around(np.repeat(normal[None], n, axis=0), np.sqrt(rng.random(n)), rng)
+        for part, ground_first in (("atmosphere", False), ("ground", True)):
+            if ground_first and facing_up:
+                continue  # lines of sight above the horizontal plane never reach the ground
+            c = math.pi * _trace(media, camera, views, sun, ground_first, orders, n, rng)
             sums[part][0] += c.sum(axis=0)
             sums[part][1] += np.einsum("pic,pjc->ijc", c, c)
     atmosphere, atmosphere_cov = _mean_and_cov(*sums["atmosphere"], paths)

@@ -165,7 +165,7 @@ def test_transmittance_is_exp_of_optical_depth():
 
 
 def test_shapes_and_clamping():
-    assert ref.net_density_to_top(PARAMS, 1000.0, 0.3).shape == (3,)
+    assert ref.net_density_to_top(PARAMS, 1000.0, 0.3).shape == (4,)  # Rayleigh, Mie, ozone, fog
     assert ref.transmittance_to_top(PARAMS, np.zeros((4, 1)), np.linspace(0, 1, 5)).shape == (4, 5, 3)
     net = ref.net_density_to_top
     np.testing.assert_array_equal(net(PARAMS, -50.0, 0.4), net(PARAMS, 0.0, 0.4))
@@ -342,7 +342,7 @@ def brute_single_scattering(params, h, mu_v, mu_s, nu, n_view=3000, n_sun=3000):
     z = np.linalg.norm(pts, axis=1) - R
     rho = densities(params, z)
     ext = params.extinction_matrix()
-    depth = np.concatenate([[np.zeros(3)], np.cumsum(0.5 * (rho[1:] + rho[:-1]) * np.diff(s)[:, None], axis=0)])
+    depth = np.concatenate([[np.zeros(rho.shape[1])], np.cumsum(0.5 * (rho[1:] + rho[:-1]) * np.diff(s)[:, None], axis=0)])
     t_view = np.exp(-depth @ ext)
     t_sun = np.zeros((n_view, 3))
     for i in range(0, n_view, 500):  # sun rays in blocks
@@ -357,6 +357,7 @@ def brute_single_scattering(params, h, mu_v, mu_s, nu, n_view=3000, n_sun=3000):
         t_sun[i : i + 500] = np.where(blocked[:, None], 0.0, np.exp(-net @ ext))
     f = (
         params.rayleigh * rayleigh_phase(nu) * rho[:, :1] + params.mie * mie_phase(nu, params.mie_g) * rho[:, 1:2]
+        + params.fog * mie_phase(nu, params.fog_g) * rho[:, 3:4]  # 0 without fog
     ) * t_view * t_sun
     return np.trapz(f, s, axis=0)
 
