@@ -16,7 +16,8 @@ import numpy as np
 
 from .shadow_map import Camera, ShadowCascades, locate, tap_fraction
 
-BLOCK = 8
+BLOCK_SHIFT = 3
+BLOCK = 1 << BLOCK_SHIFT
 
 
 @dataclass
@@ -59,10 +60,14 @@ def visibility(cascades: ShadowCascades, maps: MinMaxMaps, points, camera: Camer
     """shadow_map.visibility (with PCF as ``maps`` was built), skipping decided points' taps."""
     tested, cascade, y, x, depth, bias = locate(cascades, points, camera, best_search, first_cascade)
     res = cascades.resolution
-    row, column = np.floor(y).astype(np.int64), np.floor(x).astype(np.int64)
-    block_row, block_column = np.clip(row, 0, res - 1) // BLOCK, np.clip(column, 0, res - 1) // BLOCK
-    lit = np.where(depth >= maps.high[cascade, block_row, block_column] - bias, 1.0, 0.0)
-    undecided = tested & (depth >= maps.low[cascade, block_row, block_column] - bias) & (lit == 0.0)
+    # One flat block index for both maps, blocks by shifts: integer division and three-index
+    # gathers were a third of this test's own time.
+    blocks = maps.high.shape[-1]
+    block_row = np.clip(np.floor(y).astype(np.int64), 0, res - 1) >> BLOCK_SHIFT
+    block_column = np.clip(np.floor(x).astype(np.int64), 0, res - 1) >> BLOCK_SHIFT
+    block = (cascade * blocks + block_row) * blocks + block_column
+    lit = np.where(depth >= np.take(maps.high, block) - bias, 1.0, 0.0)
+    undecided = tested & (depth >= np.take(maps.low, block) - bias) & (lit == 0.0)
     if undecided.any():
         lit[undecided] = tap_fraction(cascades, cascade[undecided], y[undecided], x[undecided],
                                       depth[undecided], bias[undecided], maps.smooth)

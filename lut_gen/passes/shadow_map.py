@@ -370,7 +370,8 @@ def locate(cascades: ShadowCascades, points, camera: Camera, best_search: bool =
     # float32 too), anything else is taken as float64.
     dtype = np.float32 if points.dtype == np.float32 else np.float64
     points = points.astype(dtype, copy=False)
-    light = points @ cascades.frame.T.astype(dtype)
+    # One (n, 3) product: a stack of (..., 3) @ (3, 3) products runs numpy's slower loop (1.4x).
+    light = (points.reshape(-1, 3) @ cascades.frame.T.astype(dtype)).reshape(points.shape)
     view_depth = None if best_search else (points - camera.position) @ camera.forward
     index = select_cascade(cascades, light[..., :2], view_depth, best_search)
     index = np.maximum(index, min(first_cascade, cascades.count - 1))
