@@ -281,10 +281,11 @@ def _fill(out, x_lo, span, depth_plane, d0, box: _Boxes):
     per-column and a per-row part in float32, within 2 float32 steps of the scan's (far below
     the depth bias)."""
     y, x, height, width = int(box.lo_y[0]), int(box.lo_x[0]), int(box.height[0]), int(box.width[0])
-    x_lo, span = x_lo[:height], span[:height]
-    columns = np.arange(width)
-    inside = (columns >= x_lo[:, None]) & (columns < (x_lo + span)[:, None])
-    along = (d0 + depth_plane[0] * columns).astype(np.float32)
+    # int32 columns: the mask's comparisons run twice as wide as on int64.
+    x_lo, x_end = x_lo[:height].astype(np.int32), (x_lo[:height] + span[:height]).astype(np.int32)
+    columns = np.arange(width, dtype=np.int32)
+    inside = (columns >= x_lo[:, None]) & (columns < x_end[:, None])
+    along = (d0 + depth_plane[0] * np.arange(width, dtype=np.float64)).astype(np.float32)
     across = (depth_plane[1] * np.arange(height, dtype=np.float64) + depth_plane[2]).astype(np.float32)
     view = out[y:y + height, x:x + width]
     np.maximum(view, np.add.outer(across, along), out=view, where=inside)
