@@ -5,8 +5,9 @@ When (measured in bpy 5.0.1): a still render runs render_pre with the scene's de
 date. An animation render runs render_pre of frame f with the previous frame's state, then
 frame_change_post of f with the render's depsgraph evaluated at f; images written there are
 what the compositor of frame f reads. Both hooks call ``update_frame``; a key of everything the
-result depends on skips the repeated work (the shadow maps take about 0.4 s at 1024 texels and
-6 cascades on 2 cores). Renders without compositing skip it all.
+result depends on skips the repeated work (the shadow maps take about 0.2 s at 1024 texels and
+6 cascades on 2 cores for the sample, 0.5 s for a forest of 660 000 triangles). Renders without
+compositing skip it all.
 """
 from __future__ import annotations
 
