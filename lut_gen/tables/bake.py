@@ -545,7 +545,7 @@ def _integrate_order(params, media: Media, dims_j, j_table, progress: Progress, 
         r = params.earth_radius + heights[i]
         node_h = nodes.radius - params.earth_radius
         node_cos_view = (r * cos_view_i[:, None] + nodes.s) / nodes.radius
-        xh = par.height_to_x(node_h, n_h, params.atmosphere_height)
+        xh = par.height_to_x(node_h, n_h, params.atmosphere_height, par.fog_knee(params))
         xa, _ = par.view_zenith_to_x(node_cos_view, node_h, n_a, params.earth_radius,
                                      above_horizon=np.broadcast_to(above_i[:, None], node_h.shape))
         ih, wh = axis_weights(xh, n_h)

@@ -42,15 +42,34 @@ def cos_horizon(height_m, earth_radius: float):
 
 
 # -- height (eq. 4) ----------------------------------------------------------
+#
+# With a fog layer the height axis is logarithmic instead: u = ln(1 + h/k) / ln(1 + H/k) with
+# k = FOG_KNEE_SHARE x the fog's scale height. Eq. (4)'s square root puts the first row 83 m up
+# at 32 rows, above a 50 m fog, and the geometric blend between the ground's row (in the fog)
+# and that one (above it) was 20% off for a camera 2 m up, 40% at 30 m.
 
-def height_to_x(height_m, n: int, atmosphere_height: float):
-    u = np.sqrt(np.clip(np.asarray(height_m, dtype=np.float64) / atmosphere_height, 0.0, 1.0))
+FOG_KNEE_SHARE = 0.5
+
+
+def fog_knee(params):
+    """k of the logarithmic height axis for params with fog, None for eq. (4)'s."""
+    return FOG_KNEE_SHARE * params.fog_height if params.has_fog else None
+
+
+def height_to_x(height_m, n: int, atmosphere_height: float, knee=None):
+    h = np.clip(np.asarray(height_m, dtype=np.float64), 0.0, atmosphere_height)
+    if knee is None:
+        u = np.sqrt(h / atmosphere_height)
+    else:
+        u = np.log1p(h / knee) / math.log1p(atmosphere_height / knee)
     return u * (n - 1)
 
 
-def x_to_height(x, n: int, atmosphere_height: float):
+def x_to_height(x, n: int, atmosphere_height: float, knee=None):
     u = np.asarray(x, dtype=np.float64) / (n - 1)
-    return u * u * atmosphere_height
+    if knee is None:
+        return u * u * atmosphere_height
+    return knee * np.expm1(u * math.log1p(atmosphere_height / knee))
 
 
 # -- view zenith (eq. 5, Listing 2) ----------------------------------------
@@ -125,7 +144,7 @@ def world_to_x(params, dims, height_m, cos_view_zenith, cos_sun_zenith, cos_sun_
     """4D texel coordinates (xh, xa, xs, xt) and the horizon flag for a look-up."""
     n_h, n_a, n_s, n_t = dims
     h = np.clip(np.asarray(height_m, dtype=np.float64), 0.0, params.atmosphere_height)
-    xh = height_to_x(h, n_h, params.atmosphere_height)
+    xh = height_to_x(h, n_h, params.atmosphere_height, fog_knee(params))
     xa, above = view_zenith_to_x(cos_view_zenith, h, n_a, params.earth_radius, above_horizon)
     xs = sun_zenith_to_x(cos_sun_zenith, n_s)
     xt = sun_view_to_x(cos_sun_view, n_t)
@@ -136,7 +155,7 @@ def grid_axes(params, dims):
     """World values at the table nodes: heights (n_h,), cos view zenith (n_h, n_a),
     above-horizon flags (n_a,), cos sun zenith (n_s,), cos sun-view (n_t,)."""
     n_h, n_a, n_s, n_t = dims
-    heights = x_to_height(np.arange(n_h), n_h, params.atmosphere_height)
+    heights = x_to_height(np.arange(n_h), n_h, params.atmosphere_height, fog_knee(params))
     cos_view, above = x_to_view_zenith(np.arange(n_a)[None, :], heights[:, None], n_a, params.earth_radius)
     cos_sun = x_to_sun_zenith(np.arange(n_s), n_s)
     cos_sun_view = x_to_sun_view(np.arange(n_t), n_t)
