@@ -17,7 +17,8 @@ from ..lut_gen.model.atmosphere import DEFAULT_GROUND_ALBEDO
 from . import baking
 from .scene import clouds, names
 from .scene.setup import compositor
-from .settings import DEFAULT_MIE_COLOR, DEFAULT_RAYLEIGH_COLOR, WITHOUT_EFFECT, atmosphere_params
+from .settings import (DEFAULT_MIE_COLOR, FOG_HEIGHT_MAX_M, FOG_HEIGHT_MIN_M, FOG_VISIBILITY_MAX_M, DEFAULT_RAYLEIGH_COLOR, WITHOUT_EFFECT,
+                       atmosphere_params)
 
 REBAKE_DELAY_S = 0.75     # wait for a slider drag to settle before re-baking
 
@@ -409,6 +410,21 @@ class OLSSettings(bpy.types.PropertyGroup):
         description="Ozone column in Dobson units (300: the global mean; 0: no ozone). Its Chappuis band "
                     "keeps the twilight zenith blue (Clear Sky preset only; the tables are re-baked)",
         default=300.0, min=0.0, max=600.0,
+        update=_rebake_soon,
+    )
+    fog_visibility: FloatProperty(
+        name="Fog Visibility",
+        description="Meteorological visibility in the fog at the ground, in metres (0: no fog; 100 m "
+                    "to 50 km). A grey, forward-scattering layer of droplets beside the haze: distant "
+                    "hills fade into white and the sun's disc pales (the tables are re-baked)",
+        default=0.0, min=0.0, max=FOG_VISIBILITY_MAX_M, soft_max=5000.0, unit="LENGTH",
+        update=_rebake_soon,
+    )
+    fog_height: FloatProperty(
+        name="Fog Height",
+        description="The fog layer's scale height in metres: its density falls by e over this height "
+                    "(10-500 m; the tables are re-baked)",
+        default=50.0, min=FOG_HEIGHT_MIN_M, max=FOG_HEIGHT_MAX_M, unit="LENGTH",
         update=_rebake_soon,
     )
     animate_sun: BoolProperty(

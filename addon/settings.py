@@ -56,6 +56,8 @@ PROPERTIES_BY_SET = {
         "atmosphere_preset",
         "ground_albedo",
         "ozone_column",
+        "fog_visibility",
+        "fog_height",
         "animate_sun",
         "day_start_frame",
         "day_end_frame",
@@ -100,6 +102,14 @@ WITHOUT_EFFECT = {
 RAYLEIGH_SCATTERING_SCALE = max(DEFAULT_RAYLEIGH_SCATTERING)
 DEFAULT_RAYLEIGH_COLOR = tuple(c / RAYLEIGH_SCATTERING_SCALE for c in DEFAULT_RAYLEIGH_SCATTERING)
 DEFAULT_MIE_COLOR = (1.0, 1.0, 1.0)
+
+# The panel's fog: visibility 100 m (a dense fog) to 50 km (a trace), 0 for none; scale heights
+# of 10 m (a shallow radiation fog) to 500 m (a deep valley fog). Below 100 m of visibility
+# (or 10 m of height) the tables' height axis stops resolving the layer near the camera.
+FOG_VISIBILITY_MIN_M = 100.0
+FOG_VISIBILITY_MAX_M = 50_000.0
+FOG_HEIGHT_MIN_M = 10.0
+FOG_HEIGHT_MAX_M = 500.0
 
 
 
@@ -150,6 +160,17 @@ def _f32_color(color):
     return tuple(_f32_value(c) for c in color)
 
 
+def fog_fields(settings) -> dict:
+    """The fog's AtmosphereParams fields for the panel's controls: no fog at visibility 0; a
+    visibility between 0 and the lowest the tables resolve reads as that lowest one (the
+    property's range cannot say "0 or at least 100 m")."""
+    visibility = _f32_value(safe_value(settings, "fog_visibility"))
+    if visibility <= 0.0:
+        return {}
+    return {"fog_visibility": max(visibility, FOG_VISIBILITY_MIN_M),
+            "fog_height": _f32_value(safe_value(settings, "fog_height"))}
+
+
 def atmosphere_params(settings) -> AtmosphereParams:
     """Table parameters (``lut_gen.AtmosphereParams``) for an ``OLSSettings``.
 
@@ -173,7 +194,7 @@ def atmosphere_params(settings) -> AtmosphereParams:
     if preset_name == "sample-2013":
         return preset("sample-2013", rayleigh_scattering=rayleigh, mie_scattering=mie,
                       aerosol_density=_f32_value(settings.aerosol_density),
-                      aerosol_absorption=_f32_value(settings.aerosol_absorption))
+                      aerosol_absorption=_f32_value(settings.aerosol_absorption), **fog_fields(settings))
     return preset(
         "clear-sky",
         rayleigh_scattering=rayleigh,
@@ -183,4 +204,5 @@ def atmosphere_params(settings) -> AtmosphereParams:
         ground_albedo=_f32_value(settings.ground_albedo),
         ozone=_f32_value(settings.ozone_column) > 0.0,
         ozone_column=_f32_value(settings.ozone_column),
+        **fog_fields(settings),
     )

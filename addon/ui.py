@@ -22,6 +22,7 @@ ENABLED_BY = {
     "mie_color": lambda settings: settings.use_custom_scattering_coeffs,
     "ground_albedo": lambda settings: settings.atmosphere_preset == "CLEAR_SKY",
     "ozone_column": lambda settings: settings.atmosphere_preset == "CLEAR_SKY",
+    "fog_height": lambda settings: settings.fog_visibility > 0.0,
     "day_start_frame": lambda settings: settings.animate_sun,
     "day_end_frame": lambda settings: settings.animate_sun,
     "jitter_steps": lambda settings: settings.scattering_technique == "BRUTE_FORCE",

@@ -82,7 +82,8 @@ class Twin:
 
     def __init__(self, pkg, scene, passes):
         self.pkg, self.scene, self.passes = pkg, scene, passes
-        self.luts = pkg.lut_gen.load(extension_module("addon.baking").bake_if_needed(pkg.lut_gen.AtmosphereParams(), "draft"))
+        params = extension_module("addon.settings").atmosphere_params(scene.ols)      # the scene's own (fog too)
+        self.luts = pkg.lut_gen.load(extension_module("addon.baking").bake_if_needed(params, "draft"))
         self.shadow_maps = extension_module("addon.scene.frame.shadow_maps")
         self.frame_state = extension_module("addon.scene.frame.frame_state")
         sun_mod = extension_module("addon.scene.sun")

@@ -72,8 +72,10 @@ def pack(tables: epipolar.EpipolarTables):
 
 
 def pack_air(tables: epipolar_air.AirTables) -> dict:
-    """{image name: RGBA pixels} of the in-scattering tables."""
-    arrays = {"single": tables.rayleigh, "single_mie": tables.mie, "higher": tables.higher}
+    """{image name: RGBA pixels} of the in-scattering tables (the fog's 0 without fog: its image
+    is read only by groups built for fog)."""
+    arrays = {"single": tables.rayleigh, "single_mie": tables.mie, "higher": tables.higher,
+              "single_fog": np.zeros_like(tables.mie) if tables.fog is None else tables.fog}
     return {names.EPIPOLAR_AIR_IMAGES[name]: _rows(_channels(table)) for name, table in arrays.items()}
 
 
@@ -133,7 +135,7 @@ class _Grid:
         return self.g.vlerp(rows[0], rows[1], self.weight)
 
 
-def in_scattering(g, gin, direction, length, sun, geometry, layout, images, mie_g):
+def in_scattering(g, gin, direction, length, sun, geometry, layout, images, params):
     """The air's light per unit sun of the pixel ray ``direction`` of ``length``: the
     aerial perspective's in-scattering where ``geometry`` is 1, plus the shadowed minus the
     unshadowed in-scattering (the light shafts), all from the tables: the lit length and first
@@ -185,11 +187,14 @@ def in_scattering(g, gin, direction, length, sun, geometry, layout, images, mie_
         return total
 
     cos_theta = g.vmath("DOT_PRODUCT", direction, sun)
-    phases = rayleigh_phase(g, cos_theta), mie_phase(g, cos_theta, mie_g)
+    phases = rayleigh_phase(g, cos_theta), mie_phase(g, cos_theta, params.mie_g)
 
     def phased(single, higher):
         rayleigh = g.vmath("ADD", combination("single", single), combination("higher", higher))
-        return g.vmath("ADD", g.vscale(rayleigh, phases[0]), g.vscale(combination("single_mie", single), phases[1]))
+        light = g.vmath("ADD", g.vscale(rayleigh, phases[0]), g.vscale(combination("single_mie", single), phases[1]))
+        if params.has_fog:
+            light = g.vmath("ADD", light, g.vscale(combination("single_fog", single), mie_phase(g, cos_theta, params.fog_g)))
+        return light
 
     uses = epipolar_air.table_uses(layout.single_mode, layout.multiple_mode)
     light = phased(weights(uses["single"]), weights(uses["higher"]))

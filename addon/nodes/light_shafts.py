@@ -25,7 +25,8 @@ from .aerial import PASS_INPUTS
 from .builder import group_io, new_group
 from .inscattering import section_node
 from .lookup import mie_phase, rayleigh_phase
-from .optical import (ozone_density, point_frame, segment_transmittance_node, transmittance_from_net_density,
+from .optical import (optical_depth_of, ozone_density, point_frame, segment_transmittance_node,
+                      transmittance_of_optical_depth,
                       transmittance_to_top)
 from ..scene import names
 
@@ -179,27 +180,34 @@ def build_shadow_test_group(layout: ShaftLayout, atlas_image, parameter_image, c
 def build_integration_group(optical_image, params):
     """"OLS Integration Step": single scattering of one march step, sigma_s P(theta) T(C->X)
     T_sun(X) x lit x step (the sample's "Singl sctr: integration"), with the extinction from the
-    camera accumulated step by step (net densities in and out, midpoint rule). Twin: the
-    INTEGRATION branch of lut_gen.passes.aerial.light_shafts."""
+    camera accumulated step by step (the RGB optical depth in and out, midpoint rule: one
+    vector whatever the number of media, fog included). Twin: the INTEGRATION branch of
+    lut_gen.passes.aerial.light_shafts."""
     tree = new_group(names.INTEGRATION_GROUP, "CompositorNodeTree")
     inputs = [("Point", "NodeSocketVector", (0.0, 0.0, 0.0)), ("Direction", "NodeSocketVector", (0.0, 1.0, 0.0)),
               ("Sun Direction", "NodeSocketVector", (0.0, 0.0, 1.0)), ("Lit", "NodeSocketFloat", 1.0),
-              ("Step", "NodeSocketFloat", 1.0), ("Net Density Before", "NodeSocketVector", (0.0, 0.0, 0.0))]
+              ("Step", "NodeSocketFloat", 1.0), ("Optical Depth Before", "NodeSocketVector", (0.0, 0.0, 0.0))]
     g, gin, gout = group_io(tree, inputs, [("Radiance", "NodeSocketVector", None),
-                                           ("Net Density After", "NodeSocketVector", None)])
+                                           ("Optical Depth After", "NodeSocketVector", None)])
     point, direction, sun, step = (gin.outputs[n] for n in ("Point", "Direction", "Sun Direction", "Step"))
     height, up = point_frame(g, point, params)
     sun_transmittance = transmittance_to_top(g, optical_image, height, g.vmath("DOT_PRODUCT", up, sun), params)
     rho_r = g.math("EXPONENT", g.div(height, -params.rayleigh_scale_height))
     rho_m = g.math("EXPONENT", g.div(height, -params.mie_scale_height))
-    step_density = g.vscale(g.combine(rho_r, rho_m, ozone_density(g, height)), step)
-    before = gin.outputs["Net Density Before"]
-    g.links.new(g.vmath("ADD", before, step_density), gout.inputs["Net Density After"])
-    view_transmittance = transmittance_from_net_density(
-        g, *g.separate(g.vmath("MULTIPLY_ADD", step_density, (0.5, 0.5, 0.5), before)), params)
+    media = [rho_r, rho_m, ozone_density(g, height)]
+    if params.has_fog:
+        rho_f = g.math("EXPONENT", g.div(height, -params.fog_height))
+        media.append(rho_f)
+    step_depth = g.vscale(optical_depth_of(g, media, params), step)
+    before = gin.outputs["Optical Depth Before"]
+    g.links.new(g.vmath("ADD", before, step_depth), gout.inputs["Optical Depth After"])
+    view_transmittance = transmittance_of_optical_depth(g, g.vmath("MULTIPLY_ADD", step_depth, (0.5, 0.5, 0.5), before))
     cos_theta = g.vmath("DOT_PRODUCT", direction, sun)
     scattering = g.vmath("ADD", g.vscale(tuple(params.rayleigh), g.mul(rho_r, rayleigh_phase(g, cos_theta))),
                          g.vscale(tuple(params.mie), g.mul(rho_m, mie_phase(g, cos_theta, params.mie_g))))
+    if params.has_fog:      # grey and non-absorbing: scattering = extinction
+        scattering = g.vmath("ADD", scattering, g.vscale((params.fog,) * 3,
+                                                         g.mul(rho_f, mie_phase(g, cos_theta, params.fog_g))))
     weight = g.mul(gin.outputs["Lit"], step)
     radiance = g.vscale(g.vmath("MULTIPLY", g.vmath("MULTIPLY", scattering, view_transmittance), sun_transmittance), weight)
     g.links.new(radiance, gout.inputs["Radiance"])
@@ -269,7 +277,7 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     scale = g.mul(g.mul(gin.outputs["Sun Strength"], gin.outputs["Scattering Scale"]), gin.outputs["Enable"])
     if layout.epipolar:         # the whole image: surface x transmittance + the air's light
         light, unshadowed = epipolar.in_scattering(g, gin, direction, length, sun, geometry, layout,
-                                                   epipolar_images, params.mie_g)
+                                                   epipolar_images, params)
         base = g.vmath("MULTIPLY", gin.outputs["Surface"], gin.outputs["Transmittance"])
     else:                       # the aerial group's image + shadowed - unshadowed
         integration = build_integration_group(optical_image, params)
@@ -343,7 +351,7 @@ def _brute_force_difference(g, camera, end, direction, sun, layout: ShaftLayout,
 # chunks of this many steps keep every tree to a few hundred links (about 2 s).
 CHUNK_STEPS = 10
 MARCH_STATE = [("Lit Length", "NodeSocketFloat", 0.0), ("First Lit", "NodeSocketFloat", NEVER),
-               ("Net Density", "NodeSocketVector", (0.0, 0.0, 0.0)), ("Integrated", "NodeSocketVector", (0.0, 0.0, 0.0)),
+               ("Optical Depth", "NodeSocketVector", (0.0, 0.0, 0.0)), ("Integrated", "NodeSocketVector", (0.0, 0.0, 0.0)),
                # The first shadow edge (lut_gen.passes.shaft_boundary.first_transition): the first
                # sample's state (-1 before it), the index of the first sample of the other state
                # (NEVER while none) and the lit fractions on both sides of it.
@@ -362,7 +370,7 @@ def march_chunks(steps: int):
 def build_march_chunk_group(name: str, count: int, layout: ShaftLayout, shadow_test_tree, integration):
     """``count`` consecutive march steps from "First Step" on: each shadow test adds to the lit
     length (in steps) and lowers the first lit distance; with INTEGRATION each step's single
-    scattering is added, the net density carried from step to step."""
+    scattering is added, the optical depth carried from step to step."""
     tree = new_group(name, "CompositorNodeTree")
     inputs = (test_inputs(layout) + MARCH_STATE
               + [("Direction", "NodeSocketVector", (0.0, 1.0, 0.0)), ("Sun", "NodeSocketVector", (0.0, 0.0, 1.0)),
@@ -393,9 +401,9 @@ def build_march_chunk_group(name: str, count: int, layout: ShaftLayout, shadow_t
             node = g.node("CompositorNodeGroup")
             node.node_tree = integration
             for socket, value in (("Point", point), ("Direction", direction), ("Sun Direction", gin.outputs["Sun"]),
-                                  ("Lit", lit), ("Step", step), ("Net Density Before", state["Net Density"])):
+                                  ("Lit", lit), ("Step", step), ("Optical Depth Before", state["Optical Depth"])):
                 g.feed(node.inputs[socket], value)
-            state["Net Density"] = node.outputs["Net Density After"]
+            state["Optical Depth"] = node.outputs["Optical Depth After"]
             state["Integrated"] = g.vmath("ADD", state["Integrated"], node.outputs["Radiance"])
     for name, value in state.items():
         g.links.new(value, gout.inputs[name])

@@ -23,9 +23,15 @@ TAN_PHI = math.tan(1.26 * 1.1)       # eq. (6), Bruneton's form
 
 
 def height_coordinate(g, height, dims, params):
-    """x_h of eq. (4) and the clamped height."""
+    """x_h and the clamped height: eq. (4), or with fog the logarithmic axis that resolves the
+    layer (lut_gen.tables.parameterization.height_to_x)."""
     h = g.clamp(height, 0.0, params.atmosphere_height)
-    u = g.math("SQRT", g.div(h, params.atmosphere_height))
+    knee = par.fog_knee(params)
+    if knee is None:
+        u = g.math("SQRT", g.div(h, params.atmosphere_height))
+    else:
+        u = g.div(g.math("LOGARITHM", g.add(g.div(h, knee), 1.0), math.e),
+                  math.log1p(params.atmosphere_height / knee))
     return g.mul(u, dims[0] - 1), h
 
 
@@ -112,11 +118,13 @@ def lower_node(g, x, n):
 
 
 
-def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=False, name=None, *, mie_image):
+def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=False, name=None, *, mie_image,
+                       fog_image=None):
     """(Re)build the group ``name`` (default: names.LOOKUP_GROUP or names.COMPOSITOR_LOOKUP_GROUP) for the
     scattering atlas ``image`` with table sizes ``dims``; ``mie_image``: the single Mie atlas
     for the tables that include single scattering, None only for "higher" (required: leaving it
-    out would silently drop the aureole).
+    out would silently drop the aureole); ``fog_image``: the single fog atlas, required with it
+    for params with fog.
 
     ``filtering``: "HARDWARE" blends the view-zenith axis with the texture unit (8 fetches;
     Cycles, which has no mipmaps). "MANUAL" fetches texel centres with Closest interpolation and
@@ -125,6 +133,8 @@ def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=Fal
     horizon), and a mipmapped fetch there mixes neighbouring tiles."""
     if filtering not in FILTERING:
         raise ValueError(f"filtering must be one of {FILTERING}, got {filtering!r}")
+    if mie_image is not None and params.has_fog and fog_image is None:
+        raise ValueError("these tables have fog: pass the single fog atlas (fog_image)")
     n_h, n_a, n_s, n_t = dims
     width, height = n_t * n_a, n_h * n_s
     inputs = [("Height", "NodeSocketFloat", 0.0), ("Cos View Zenith", "NodeSocketFloat", 1.0),
@@ -193,6 +203,8 @@ def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=Fal
     radiance = g.vscale(interpolated(image), rayleigh_phase(g, c_t))
     if mie_image is not None:
         radiance = g.vmath("ADD", radiance, g.vscale(interpolated(mie_image), mie_phase(g, c_t, params.mie_g)))
+        if params.has_fog:
+            radiance = g.vmath("ADD", radiance, g.vscale(interpolated(fog_image), mie_phase(g, c_t, params.fog_g)))
     scale = ground_ray_scale(g, h, gin.outputs["Cos View Zenith"], above, params.earth_radius)
     g.links.new(g.vscale(radiance, scale), gout.inputs["Radiance"])
     return tree

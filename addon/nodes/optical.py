@@ -10,7 +10,9 @@ import bpy
 from ...lut_gen.passes import aerial as aerial_twin
 from ...lut_gen.model import geometry
 from ...lut_gen.model.profiles import OZONE_HALF_WIDTH_M, OZONE_PEAK_HEIGHT_M
+from ...lut_gen.tables.optical_depth import EARTH_HIT_NET_DENSITY
 from ..scene import names
+from ..scene.tables.luts import fog_depth_image
 from .builder import group_io, new_group
 
 
@@ -26,17 +28,37 @@ def point_frame(g, point, params):
 
 
 def net_density_to_top(g, image, height, cos_zenith, params):
-    """(Rayleigh, Mie, ozone) net densities to the top (1e20 where the ray hits the Earth);
-    below the table's first row the Rayleigh and Mie columns are scaled by exp(dh / H), as in
-    the twin, lut_gen.Luts.net_density_to_top."""
-    cos_zenith = horizon_safe_cos(g, height, cos_zenith, image.size[0], image.size[1], params)
-    uv = g.combine(g.div(height, params.atmosphere_height), g.mul_add(cos_zenith, 0.5, 0.5), 1.0)
+    """(Rayleigh, Mie, ozone) net densities to the top (1e20 where the ray hits the Earth), and
+    the fog's fourth for params with fog; below the table's first row the Rayleigh and Mie
+    columns are scaled by exp(dh / H), the fog's stored column by the fog density at the ray's
+    lowest point, as in the twin, lut_gen.Luts.net_density_to_top."""
+    safe_cos = horizon_safe_cos(g, height, cos_zenith, image.size[0], image.size[1], params)
+    uv = g.combine(g.div(height, params.atmosphere_height), g.mul_add(safe_cos, 0.5, 0.5), 1.0)
     rayleigh, mie, ozone = g.separate(g.image(image, uv))
     first_row = params.atmosphere_height / (2 * image.size[0])
     below = g.math("MAXIMUM", g.sub(first_row, height), 0.0)
     rayleigh = g.mul(rayleigh, g.math("EXPONENT", g.div(below, params.rayleigh_scale_height)))
     mie = g.mul(mie, g.math("EXPONENT", g.div(below, params.mie_scale_height)))
-    return rayleigh, mie, ozone
+    fog_image = fog_depth_image(image, params)
+    if fog_image is None:
+        return rayleigh, mie, ozone
+    column = g.separate(g.image(fog_image, uv))[0]
+    scale = g.math("EXPONENT", g.div(lowest_height(g, height, cos_zenith, params), -params.fog_height))
+    return rayleigh, mie, ozone, g.math("MINIMUM", g.mul(column, scale), EARTH_HIT_NET_DENSITY)
+
+
+def lowest_height(g, height, cos_zenith, params):
+    """Height of the lowest point of the ray to the top: the start going up, the tangent point
+    going down (0 for rays that reach the ground). Twin: lut_gen.tables.optical_depth.lowest_height."""
+    h = g.math("MAXIMUM", height, 0.0)
+    r = g.add(h, params.earth_radius)
+    sin = g.math("SQRT", g.math("MAXIMUM", g.sub(1.0, g.mul(cos_zenith, cos_zenith)), 0.0))
+    r_cos = g.mul(r, cos_zenith)
+    # r sin - R as (r^2 sin^2 - R^2) / (r sin + R): float-safe near the ground
+    tangent = g.div(g.sub(g.mul(h, g.add(h, 2.0 * params.earth_radius)), g.mul(r_cos, r_cos)),
+                    g.mul_add(r, sin, params.earth_radius))
+    going_down = g.math("LESS_THAN", cos_zenith, 0.0)
+    return g.lerp(h, g.clamp(tangent, 0.0, h), going_down)
 
 
 def horizon_cos(g, height, params):
@@ -57,20 +79,32 @@ def horizon_safe_cos(g, height, cos_zenith, n_heights, n_cos, params):
     return g.lerp(cos_zenith, g.math("MAXIMUM", cos_zenith, first_node_above), above)
 
 
-def transmittance_from_net_density(g, rayleigh, mie, ozone, params):
-    """exp(-(beta_R D_R + beta_M^ext D_M + beta_O D_O)) per channel."""
+def optical_depth_of(g, net, params):
+    """(R, G, B) optical depth beta_R D_R + beta_M^ext D_M + beta_O D_O [+ beta_F D_F] of the three
+    or four net densities (or densities) ``net``."""
     extinction = params.extinction_matrix()      # RGB rows (spectral params: fitted, see lut_gen.model.spectrum)
-    optical_depth = g.vmath("ADD", g.vscale(tuple(extinction[0]), rayleigh),
-                            g.vmath("ADD", g.vscale(tuple(extinction[1]), mie),
-                                    g.vscale(tuple(extinction[2]), ozone)))
+    optical_depth = None
+    for row, density in zip(extinction, net):
+        term = g.vscale(tuple(row), density)
+        optical_depth = term if optical_depth is None else g.vmath("ADD", optical_depth, term)
+    return optical_depth
+
+
+def transmittance_of_optical_depth(g, optical_depth):
+    """exp(-tau) per channel (tau capped at 80: 1e20 net densities stay finite)."""
     channels = [g.math("EXPONENT", g.mul(g.math("MINIMUM", c, 80.0), -1.0)) for c in g.separate(optical_depth)]
     return g.combine(*channels)
+
+
+def transmittance_from_net_density(g, *net, params):
+    """exp(-optical depth) per channel for the three or four net densities of net_density_to_top."""
+    return transmittance_of_optical_depth(g, optical_depth_of(g, net, params))
 
 
 def transmittance_to_top(g, image, height, cos_zenith, params):
     """Transmittance from a point to the top; 0 where the ray hits the Earth (the table holds
     1e20 there). Twin: lut_gen.Luts.transmittance_to_top."""
-    return transmittance_from_net_density(g, *net_density_to_top(g, image, height, cos_zenith, params), params)
+    return transmittance_from_net_density(g, *net_density_to_top(g, image, height, cos_zenith, params), params=params)
 
 
 def ambient_skylight(g, image, cos_sun_zenith):
@@ -100,7 +134,7 @@ def ground_radiance(g, optical_image, ambient_image, height, cos_view, cos_sun, 
     from_ground = net_density_to_top(g, optical_image, 0.0, cos_back, params)
     from_viewer = net_density_to_top(g, optical_image, height, g.mul(cos_view, -1.0), params)
     view = transmittance_from_net_density(
-        g, *[g.math("MAXIMUM", g.sub(a, b), 0.0) for a, b in zip(from_ground, from_viewer)], params)
+        g, *[g.math("MAXIMUM", g.sub(a, b), 0.0) for a, b in zip(from_ground, from_viewer)], params=params)
     lit_cos = g.math("MAXIMUM", cos_sun_at, 0.0)
     direct = g.vscale(transmittance_to_top(g, optical_image, 0.0, lit_cos, params), lit_cos)
     lit = g.vmath("ADD", direct, ambient_skylight(g, ambient_image, cos_sun_at))
@@ -158,20 +192,22 @@ def segment_transmittance(g, image, start, end, direction, params):
         g.feed(weight.inputs[name], value)
     quadrature = quadrature_net_density(g, start, end, params)
     net = [g.math("MAXIMUM", g.lerp(q, t, weight.outputs["Result"]), 0.0) for q, t in zip(quadrature, table)]
-    return transmittance_from_net_density(g, *net, params)
+    return transmittance_from_net_density(g, *net, params=params)
 
 
 def quadrature_net_density(g, start, end, params):
-    """(Rayleigh, Mie, ozone) net densities along start -> end, 8-point Gauss-Legendre.
+    """(Rayleigh, Mie, ozone[, fog]) net densities along start -> end, 8-point Gauss-Legendre.
     Twin: lut_gen.passes.aerial.quadrature_net_density."""
     segment = g.vmath("SUBTRACT", end, start)
     half_length = g.mul(g.vmath("LENGTH", segment), 0.5)
-    sums = [0.0, 0.0, 0.0]
+    sums = [0.0] * (4 if params.has_fog else 3)
     for node, weight in zip(aerial_twin.GAUSS_NODES, aerial_twin.GAUSS_WEIGHTS):
         height, _ = point_frame(g, g.vmath("MULTIPLY_ADD", segment, (0.5 * (node + 1.0),) * 3, start), params)
-        rayleigh = g.math("EXPONENT", g.div(height, -params.rayleigh_scale_height))
-        mie = g.math("EXPONENT", g.div(height, -params.mie_scale_height))
-        sums = [g.mul_add(d, float(weight), acc) for d, acc in zip((rayleigh, mie, ozone_density(g, height)), sums)]
+        densities = [g.math("EXPONENT", g.div(height, -params.rayleigh_scale_height)),
+                     g.math("EXPONENT", g.div(height, -params.mie_scale_height)), ozone_density(g, height)]
+        if params.has_fog:
+            densities.append(g.math("EXPONENT", g.div(height, -params.fog_height)))
+        sums = [g.mul_add(d, float(weight), acc) for d, acc in zip(densities, sums)]
     return [g.mul(total, half_length) for total in sums]
 
 

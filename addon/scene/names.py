@@ -30,6 +30,10 @@ READS_SHADOW_MAPS_KEY = "ols_reads_shadow_maps"   # on the light-shaft group: wh
 ROWS_KEY = "ols_rows"                             # on the frame-values group: the rows it unpacks
 FILTERING_KEY = "ols_filtering"                   # on the look-up group: the engine's filtering
 FILE_STAMP_KEY = "ols_file_stamp"                 # on a table image: the file it was loaded from
+# On the optical-depth image: the name of its bake's fog optical-depth image ("" without fog).
+# The node builders that read net densities take the optical-depth image alone; the fog
+# column of a bake with fog travels with it this way (addon.nodes.optical.fog_depth_image).
+FOG_DEPTH_IMAGE_KEY = "ols_fog_depth_image"
 PACKED_MANIFEST_KEY = "ols_bake_manifest"         # on a packed table image: its bake's manifest
 
 # -- objects, worlds, materials ------------------------------------------------------------
@@ -87,4 +91,4 @@ EPIPOLAR_LIT_IMAGE = "OLS Epipolar Lit"
 EPIPOLAR_INTEGRAL_IMAGE = "OLS Epipolar Integral"
 EPIPOLAR_SAMPLING_IMAGE = "OLS Epipolar Sampling"
 EPIPOLAR_AIR_IMAGES = {"single": "OLS Epipolar Air Rayleigh", "single_mie": "OLS Epipolar Air Mie",
-                       "higher": "OLS Epipolar Air Higher"}
+                       "higher": "OLS Epipolar Air Higher", "single_fog": "OLS Epipolar Air Fog"}

@@ -76,14 +76,22 @@ class SunError(ValueError):
 class OriginTransmittance:
     """T(origin -> top) for a sun direction, from the optical-depth image (numpy, per bake)."""
 
-    def __init__(self, image, params: AtmosphereParams):
+    def __init__(self, image, params: AtmosphereParams, fog_image=None):
+        """``fog_image``: the fog's optical-depth image for params with fog. At the origin a
+        ray's lowest point is the origin itself, so its stored fog column (divided by the fog
+        density there, 1) is the column."""
+        self.ground_row = self._ground_row(image)[:, :3]
+        if params.has_fog:
+            self.ground_row = np.concatenate([self.ground_row, self._ground_row(fog_image)[:, :1]], axis=1)
+        self.extinction = params.extinction_matrix()[:self.ground_row.shape[1]]
+
+    @staticmethod
+    def _ground_row(image) -> np.ndarray:
         width, height = image.size
         pixels = np.empty(width * height * 4, dtype=np.float32)
         image.pixels.foreach_get(pixels)
         # Image x = height axis, y = cos zenith axis (see lut_gen.store.exr_io); row 0 at the bottom.
-        self.ground_row = pixels.reshape(height, width, 4)[:, 0, :3].astype(np.float64)
-        # The image holds Rayleigh, Mie and ozone: the lamp does not yet take a fog's extinction.
-        self.extinction = params.extinction_matrix()[:3]
+        return pixels.reshape(height, width, 4)[:, 0, :].astype(np.float64)
 
     def __call__(self, cos_sun_zenith: float) -> np.ndarray:
         n = len(self.ground_row)

@@ -188,6 +188,9 @@ def integration_terms(luts: Luts, camera, direction, samples, steps, sun) -> np.
     cos_theta = np.sum(direction * sun, axis=-1)[..., None, None]
     scatter = (luts.params.rayleigh * rho[..., :1] * rayleigh_phase(cos_theta)
                + luts.params.mie * rho[..., 1:] * mie_phase(cos_theta, luts.params.mie_g))
+    if luts.params.has_fog:     # grey and non-absorbing: its scattering is its extinction
+        rho_fog = np.exp(-np.maximum(height, 0) / luts.params.fog_height)[..., None]
+        scatter = scatter + luts.params.fog * rho_fog * mie_phase(cos_theta, luts.params.fog_g)
     return scatter * view_trans * sun_trans * np.asarray(steps)[..., None]
 
 

@@ -22,7 +22,8 @@ parametrisation as the lit-length tables (lut_gen.passes.epipolar) and a geometr
 to the camera's reach. The phase functions are divided out at each node (they are constant
 along a ray) and applied per pixel, so the Mie peak around the sun is exact and what is
 interpolated across directions varies slowly: Rayleigh single scattering / P_R, single Mie
-scattering / P_M and the higher orders / P_R, as the 4D tables store them (lut_gen.tables.lookup).
+scattering / P_M, the fog's / P_F and the higher orders / P_R, as the 4D tables store them
+(lut_gen.tables.lookup).
 """
 from __future__ import annotations
 
@@ -46,10 +47,12 @@ MAX_REACH = 400e3           # m: a camera with no clip end sees no farther than 
 @dataclass
 class AirTables:
     """Per grid node (slices + 1, samples) and distance: I / phase for the Rayleigh and the
-    Mie single scattering and the higher orders."""
+    Mie single scattering and the higher orders, and the fog's single scattering (None
+    without fog)."""
     rayleigh: np.ndarray
     mie: np.ndarray
     higher: np.ndarray
+    fog: np.ndarray = None
 
 
 def air_dims(slices: int, samples: int):
@@ -98,7 +101,7 @@ def build(luts: Luts, frame: EpipolarFrame, camera_position) -> AirTables:
     # Rays no distance raises keep one direction: their start look-ups are made once, not per
     # distance (a third of the tables' time; the sky's half of a frame has no raised ray).
     straight = ~lifted.any(axis=-1)                                        # (S+1, N)
-    names = ("single", "single_mie", "higher")
+    names = ("single", "single_mie", "higher") + (() if luts.single_fog is None else ("single_fog",))
     radiances = [np.zeros(directions.shape, dtype=np.float32) for _ in names]
     for rays, ray_directions in ((straight, nodes), (~straight, directions)):
         if not rays.any():
@@ -124,8 +127,12 @@ def inscattering(luts: Luts, frame: EpipolarFrame, tables: AirTables, part: str,
     if part == "higher":
         return p_r * trilinear(frame, tables.higher, direction, distance)
     p_m = mie_phase(cos_theta, luts.params.mie_g)[..., None]
-    return p_r * trilinear(frame, tables.rayleigh, direction, distance) + p_m * trilinear(frame, tables.mie,
-                                                                                      direction, distance)
+    single = p_r * trilinear(frame, tables.rayleigh, direction, distance) + p_m * trilinear(frame, tables.mie,
+                                                                                        direction, distance)
+    if tables.fog is not None:
+        single = single + mie_phase(cos_theta, luts.params.fog_g)[..., None] * trilinear(frame, tables.fog, direction,
+                                                                                         distance)
+    return single
 
 
 def table_uses(single_mode: str, multiple_mode: str) -> dict:

@@ -59,9 +59,10 @@ def sky(luts: Luts, height_m: float, cos_view_zenith, cos_sun_zenith: float, cos
     xh, xa, xs, xt, above = par.world_to_x(params, luts.dims, height_m, cos_view_zenith, cos_sun_zenith, cos_sun_view)
     heights, w_h = _nodes(xh, n_h)
     suns, w_s = _nodes(xs, n_s)
-    # (n_a, n_t, height node, sun node, table, 3): the stored and the single Mie table side by
-    # side, so that every step below runs once for both, with the geometric axes outermost.
-    corners = np.stack([table[np.ix_(heights, np.arange(n_a), suns)] for table in (luts.multiple, luts.single_mie)])
+    # (n_a, n_t, height node, sun node, table, 3): the stored, the single Mie (and fog) table side
+    # by side, so that every step below runs once for all, with the geometric axes outermost.
+    tables = (luts.multiple, luts.single_mie) + (() if luts.single_fog is None else (luts.single_fog,))
+    corners = np.stack([table[np.ix_(heights, np.arange(n_a), suns)] for table in tables])
     corners = corners.transpose(2, 4, 1, 3, 0, 5)
     channels = corners[0, 0].size
     rows, width = xt.shape
@@ -89,7 +90,8 @@ def sky(luts: Luts, height_m: float, cos_view_zenith, cos_sun_zenith: float, cos
         blend = np.ascontiguousarray(blend.T).reshape(corners.shape[2:] + (-1,))
         blend = geometric_lerp(blend[0], blend[1], w_h)
         blend = geometric_lerp(blend[0], blend[1], w_s)
-        radiance = with_phases(params, blend[0].T, blend[1].T, cos_sun_view[pixels])
+        radiance = with_phases(params, blend[0].T, blend[1].T, cos_sun_view[pixels],
+                               blend[2].T if len(tables) > 2 else None)
         out[pixels] = radiance * scale[pixels, None]
     return out.reshape(rows, width, 3)
 

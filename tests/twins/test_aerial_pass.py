@@ -11,10 +11,14 @@ from extension import extension_module
 bpy = pytest.importorskip("bpy")
 
 
-def test_aerial_perspective_pass_matches_twin(addon_package, tmp_path, monkeypatch):
+# Without fog, and in a 3 km fog of 100 m scale height that veils the sample's far terrain.
+@pytest.mark.parametrize("fog", [{}, {"fog_visibility": 3000.0, "fog_height": 100.0}], ids=["clear", "fog"])
+def test_aerial_perspective_pass_matches_twin(addon_package, tmp_path, monkeypatch, fog):
     monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "cache"))
     pkg = addon_package
     scene = sample_scene(pkg)
+    for name, value in fog.items():
+        setattr(scene.ols, name, value)
     assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
     scene.view_layers[0].use_pass_position = True
     scene.view_layers[0].use_pass_z = True
@@ -24,11 +28,13 @@ def test_aerial_perspective_pass_matches_twin(addon_package, tmp_path, monkeypat
     nodes = extension_module("addon.nodes")
     luts_mod = extension_module("addon.scene.tables.luts")
     sun_mod = extension_module("addon.scene.sun")
-    directory = extension_module("addon.baking").bake_if_needed(pkg.lut_gen.AtmosphereParams(), "draft")
+    params = extension_module("addon.settings").atmosphere_params(scene.ols)
+    assert params.has_fog == bool(fog)
+    directory = extension_module("addon.baking").bake_if_needed(params, "draft")
     luts = pkg.lut_gen.load(directory)
     images = luts_mod.load_images(directory)
     nodes.build_lookup_group(images["multiple"], luts.dims, luts.params, compositor=True,
-                             mie_image=images["single_mie"])
+                             mie_image=images["single_mie"], fog_image=images.get("single_fog"))
     aerial_group = nodes.build_aerial_group(images["optical_depth"], luts.params)
     camera = np.array(scene.camera.matrix_world.translation)
     sun = sun_mod.direction_to_sun(sun_mod.find_sun(scene))

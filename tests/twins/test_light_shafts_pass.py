@@ -45,6 +45,31 @@ def relative_error(seen, twin):
 
 
 @pytest.mark.parametrize("technique", ["EPIPOLAR_SAMPLING", "BRUTE_FORCE"])
+def test_shafts_in_fog_match_the_twin(addon_package, tmp_path, monkeypatch, technique):
+    """A 2 km fog of 100 m scale height over the sample's valley: the fog's own single scattering
+    (its table, its phase; its density in the march) and extinction in every part of the pass,
+    and the ridge's shadow cut out of the fog."""
+    scene = low_sun_scene(addon_package, tmp_path, monkeypatch)
+    scene.ols.fog_visibility, scene.ols.fog_height = 2000.0, 100.0
+    assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+    scene.compositing_node_group.nodes["OLS Tone Mapping"].mute = True
+    scene.ols.scattering_technique = technique
+    passes = render_passes(addon_package, scene, tmp_path)
+    twin = Twin(addon_package, scene, passes)
+    assert twin.luts.params.has_fog
+    for single, multiple in (("LUT", "UNOCCLUDED"), ("INTEGRATION", "OCCLUDED")):
+        scene.ols.single_scattering_mode, scene.ols.multiple_scattering_mode = single, multiple
+        seen = render_rgb(scene, tmp_path / f"fog_{single}.exr", composite=True)[::-1]
+        expected = twin()
+        error = relative_error(seen, expected)
+        print(technique, single, multiple, "fog: median", np.median(error), "p99", np.percentile(error, 99))
+        assert np.median(error) <= 1e-4 and np.percentile(error, 99) <= 1e-3
+    save_png(tmp_path / "fog_shafts.png", seen[::-1], 1.0)
+    darker = (twin(enable_light_shafts=False) - expected).sum(axis=-1)
+    assert (darker > 0.01 * np.maximum(expected.sum(axis=-1), 1e-6)).mean() > 0.05
+
+
+@pytest.mark.parametrize("technique", ["EPIPOLAR_SAMPLING", "BRUTE_FORCE"])
 def test_every_scattering_mode_matches_the_twin_and_shafts_show(addon_package, tmp_path, monkeypatch, technique):
     scene = low_sun_scene(addon_package, tmp_path, monkeypatch)
     scene.ols.scattering_technique = technique

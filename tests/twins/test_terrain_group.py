@@ -28,7 +28,10 @@ def add_plane(name, size, location, rotation=(0.0, 0.0, 0.0)):
     return obj
 
 
-def test_terrain_group_matches_numpy_twin(addon, tmp_path):
+# Without fog, and in a 2 km fog of 200 m scale height (the flat plane at 0 m, the tilted one's
+# centre 80 m up: the sun reaches them through different fog columns).
+@pytest.mark.parametrize("fog", [{}, {"fog_visibility": 2000.0, "fog_height": 200.0}], ids=["clear", "fog"])
+def test_terrain_group_matches_numpy_twin(addon, tmp_path, fog):
     scene = empty_scene(width=96, height=48, samples=64)
     flat = add_plane("flat", 200.0, (-150.0, 0.0, 0.0))
     tilted = add_plane("tilted", 200.0, (150.0, 0.0, 80.0), rotation=(math.radians(-40.0), 0.0, 0.0))
@@ -41,7 +44,7 @@ def test_terrain_group_matches_numpy_twin(addon, tmp_path):
     scene.camera = camera
     sun_mod = extension_module("addon.scene.sun")
     sun = sun_mod.create_sun(scene, elevation_deg=30.0, azimuth_deg=0.0)
-    params = addon.lut_gen.AtmosphereParams()
+    params = addon.lut_gen.AtmosphereParams(**fog)
     directory = extension_module("addon.baking").bake_if_needed(params, "draft")
     extension_module("addon.scene.setup.wiring").wire_scene(scene, directory, [flat, tilted], sun)
     rendered = render_rgb(scene, tmp_path / "terrain.exr")

@@ -40,7 +40,7 @@ def build_groups(bake_dir, engine="CYCLES"):
     images = luts.load_images(bake_dir)
     params, dims = lut_gen.store.exr_io.read_header_params(bake_dir)
     lookup = nodes.build_lookup_group(images["multiple"], dims, params, nodes.lookup.filtering_for_engine(engine),
-                                      mie_image=images["single_mie"])
+                                      mie_image=images["single_mie"], fog_image=images.get("single_fog"))
     cloud_tree = nodes.build_cloud_group(clouds.ensure_map_image(clouds.seed_of(bpy.context.scene)),
                                          clouds.ensure_table_image(), skylight.ensure_cloud_air_image(), params)
     nodes.build_sky_group(images["optical_depth"], params, skylight.ensure_image(), images["ambient"],
@@ -50,7 +50,8 @@ def build_groups(bake_dir, engine="CYCLES"):
     nodes.build_terrain_group(images["optical_depth"], images["ambient"], params)
     for table in nodes.COMPOSITOR_TABLES:
         nodes.build_lookup_group(images[table], dims, params, compositor=True, name=nodes.lookup_group_name(table),
-                                 mie_image=images["single_mie"] if table in TABLES_WITH_MIE else None)
+                                 mie_image=images["single_mie"] if table in TABLES_WITH_MIE else None,
+                                 fog_image=images.get("single_fog") if table in TABLES_WITH_MIE else None)
     nodes.build_segment_transmittance_group(images["optical_depth"], params)
     for table in nodes.COMPOSITOR_TABLES:
         nodes.build_section_group(table, params)

@@ -7,7 +7,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ....lut_gen.store.exr_io import FILES, LutError, verify_bake
+from ....lut_gen.store.exr_io import ALL_FILES, LutError, bake_files, verify_bake
 from .. import names
 
 
@@ -34,7 +34,10 @@ def load_images(directory) -> dict:
         raise LutError(f"{directory} holds no baked tables; run Bake Tables first")
     key = verify_bake(directory)
     images = {}
-    for table, filename in FILES.items():
+    present = set(bake_files(directory))
+    for table, filename in ALL_FILES.items():
+        if filename not in present:     # the fog tables of a bake without fog
+            continue
         path = directory / filename
         stamp = file_stamp(path)
         name = image_name(table, key)
@@ -61,7 +64,21 @@ def load_images(directory) -> dict:
         # (over 65504 m) saturate there, and EEVEE lit the ground 22% too bright at sun 4 deg.
         image.use_half_precision = False
         images[table] = image
+    fog_depth = images.get("fog_optical_depth")
+    images["optical_depth"][names.FOG_DEPTH_IMAGE_KEY] = fog_depth.name if fog_depth is not None else ""
     return images
+
+
+def fog_depth_image(optical_image, params):
+    """The fog optical-depth image loaded with the optical-depth image ``optical_image`` (see
+    names.FOG_DEPTH_IMAGE_KEY); None for params without fog. LutError when a bake with fog lost
+    it (a .blend from before the fog)."""
+    if not params.has_fog:
+        return None
+    fog = bpy.data.images.get(optical_image.get(names.FOG_DEPTH_IMAGE_KEY) or "")
+    if fog is None:
+        raise LutError(f"the fog's optical-depth table of {optical_image.name!r} is not loaded; run Set Up Scene")
+    return fog
 
 
 def wired_directory(key: str):

@@ -19,14 +19,17 @@ import bpy
 from .... import lut_gen
 from ....lut_gen.store import manifest
 from ....lut_gen.store.atomic import atomic_path
-from ....lut_gen.store.exr_io import FILES, LutError, is_intact, verify_bake
+from ....lut_gen.store.exr_io import ALL_FILES, FILES, LutError, is_intact, verify_bake
 from . import luts
 from .. import names
 
 
 
 def _images(key: str) -> dict:
-    return {table: bpy.data.images.get(luts.image_name(table, key)) for table in FILES}
+    """{table: image or None} of bake ``key``: every table of FILES, and the fog's where loaded
+    (a bake with fog; one without has no fog images)."""
+    images = {table: bpy.data.images.get(luts.image_name(table, key)) for table in ALL_FILES}
+    return {table: image for table, image in images.items() if table in FILES or image is not None}
 
 
 def is_packed(key: str) -> bool:
@@ -50,7 +53,7 @@ def pack(key: str) -> int:
 def _write_bake(directory: Path, key: str, images: dict, text: str) -> None:
     directory.mkdir(parents=True, exist_ok=True)
     for table, image in images.items():
-        with atomic_path(directory / FILES[table]) as tmp:
+        with atomic_path(directory / ALL_FILES[table]) as tmp:
             Path(tmp).write_bytes(image.packed_file.data)
     with atomic_path(directory / manifest.MANIFEST) as tmp:     # last, as a bake writes it
         Path(tmp).write_text(text)
@@ -70,8 +73,8 @@ def restore(key: str) -> Path:
     if not isinstance(doc, dict) or doc.get("bake_key") != key or not isinstance(doc.get("files"), dict):
         raise LutError(f"the packed bake manifest does not describe bake {key[:8]}")
     for table, image in images.items():
-        if manifest.bytes_sha256(image.packed_file.data) != doc["files"].get(FILES[table]):
-            raise LutError(f"the packed table {FILES[table]} (image {image.name!r}) is damaged or comes "
+        if manifest.bytes_sha256(image.packed_file.data) != doc["files"].get(ALL_FILES[table]):
+            raise LutError(f"the packed table {ALL_FILES[table]} (image {image.name!r}) is damaged or comes "
                            "from another bake")
     directory = lut_gen.store.cache.default_cache_root() / key
     if not is_intact(directory, key):
@@ -83,5 +86,5 @@ def restore(key: str) -> Path:
             _write_bake(directory, key, images, text)
     verify_bake(directory, key)
     for table, image in images.items():
-        image.filepath_raw = str(directory / FILES[table])     # still packed: renders read the bytes
+        image.filepath_raw = str(directory / ALL_FILES[table])     # still packed: renders read the bytes
     return directory

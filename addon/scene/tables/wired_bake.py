@@ -40,7 +40,11 @@ class BakeInfo:
         if None in (self.multiple, self.single_mie, self.ambient, optical_depth):
             raise FileNotFoundError(f"the images of bake {key} are not loaded; run Set Up Scene")
         self.params, self.dims = lut_gen.store.exr_io.read_header_params(Path(bpy.path.abspath(self.multiple.filepath)).parent)
-        self.origin_transmittance = OriginTransmittance(optical_depth, self.params)
+        self.single_fog = bpy.data.images.get(luts.image_name("single_fog", key)) if self.params.has_fog else None
+        self.fog_depth = luts.fog_depth_image(optical_depth, self.params)
+        if self.params.has_fog and self.single_fog is None:
+            raise FileNotFoundError(f"the fog images of bake {key} are not loaded; run Set Up Scene")
+        self.origin_transmittance = OriginTransmittance(optical_depth, self.params, self.fog_depth)
         self._luts = None
         self._image_luts = None
 
@@ -54,15 +58,20 @@ class BakeInfo:
     def image_luts(self):
         """Luts holding the tables the lighting panoramas need, read back from their images: the
         multiple and single Mie atlases, the optical depth (stored height along x) and the
-        ambient skylight. Kept packed: the ground look-ups otherwise copied the optical-depth
+        ambient skylight (and the fog's single atlas and column). Kept packed: the ground look-ups otherwise copied the optical-depth
         table three times a sun move (10 ms each)."""
         if self._image_luts is None:
             table = atlas.unpack(_pixels(self.multiple), self.dims)
+            optical_depth = _pixels(self.optical_depth)
+            if self.fog_depth is not None:
+                optical_depth = np.concatenate([optical_depth, _pixels(self.fog_depth)[..., :1]], axis=-1)
             self._image_luts = Luts(
                 self.params, single=table, higher=np.zeros_like(table),
-                optical_depth=np.ascontiguousarray(_pixels(self.optical_depth).transpose(1, 0, 2)),
+                optical_depth=np.ascontiguousarray(optical_depth.transpose(1, 0, 2)),
                 ambient=np.ascontiguousarray(_pixels(self.ambient)[0]), multiple=table,
-                single_mie=atlas.unpack(_pixels(self.single_mie), self.dims)).keep_packed()
+                single_mie=atlas.unpack(_pixels(self.single_mie), self.dims),
+                single_fog=None if self.single_fog is None else atlas.unpack(_pixels(self.single_fog), self.dims),
+            ).keep_packed()
         return self._image_luts
 
 
