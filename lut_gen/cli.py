@@ -7,6 +7,7 @@ import sys
 import time
 from pathlib import Path
 
+from .model.air_presets import AIR_PRESETS, FOG_PRESETS, air_preset_changes
 from .model.atmosphere import PRESETS, AtmosphereParams, preset
 from .tables.bake import CONVERGED, RESOLUTIONS, bake
 from .store.cache import cached_bake, default_cache_root, key_for
@@ -49,8 +50,10 @@ def _add_param_options(parser: argparse.ArgumentParser):
     """One option per AtmosphereParams field, defaults from the dataclass."""
     group = parser.add_argument_group("atmosphere parameters (defaults: the clear-sky preset)")
     group.add_argument("--preset", default="clear-sky", metavar="NAME",
-                       help=f"starting point for the options below: {', '.join(PRESETS)} (default clear-sky; "
-                            "sample-2013 is the sample's three wavelengths as RGB, no ozone, no ground)")
+                       help=f"starting point for the options below: {', '.join(PRESET_NAMES)} (default clear-sky; "
+                            "sample-2013 is the sample's three wavelengths as RGB, no ozone, no ground; the air "
+                            "presets are the clear sky with another haze or a fog: morning-fog is visibility "
+                            f"{FOG_PRESETS['morning-fog'][0]:g} m, {FOG_PRESETS['morning-fog'][1]:g} m deep)")
     defaults = AtmosphereParams()
     for f in dataclasses.fields(AtmosphereParams):
         default = getattr(defaults, f.name)
@@ -64,13 +67,26 @@ def _add_param_options(parser: argparse.ArgumentParser):
             group.add_argument(_flag(f.name), type=float, default=None, help=f"(default {default:g})")
 
 
+# Atmosphere presets, then the air presets (a haze or a fog on the clear sky) the panel offers.
+PRESET_NAMES = (*PRESETS, *AIR_PRESETS, *FOG_PRESETS)
+
+
+def preset_params(name: str) -> AtmosphereParams:
+    """The params of ``--preset NAME``; ValueError naming every preset for an unknown one."""
+    if name in PRESETS:
+        return preset(name)
+    if name in AIR_PRESETS or name in FOG_PRESETS:
+        return preset("clear-sky", **air_preset_changes(name))
+    raise ValueError(f"unknown preset {name!r}; choose one of {', '.join(PRESET_NAMES)}")
+
+
 def params_from_args(args) -> AtmosphereParams:
     changes = {}
     for f in dataclasses.fields(AtmosphereParams):
         value = getattr(args, f.name)
         if value is not None:
             changes[f.name] = tuple(value) if isinstance(value, list) else value
-    return dataclasses.replace(preset(args.preset), **changes).validate()
+    return dataclasses.replace(preset_params(args.preset), **changes).validate()
 
 
 def parse_resolution(text: str):

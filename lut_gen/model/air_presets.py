@@ -1,5 +1,7 @@
-"""Air presets: a day's haze as its aerosol optical depth at 550 nm, shared by the panel's Air
-Preset control and `scripts/render.py --preset NAME`.
+"""Air presets: a day's haze as its aerosol optical depth at 550 nm (AIR_PRESETS), shared by the
+panel's Air Preset control and `scripts/render.py --preset NAME`, and fog as its visibility and
+depth (FOG_PRESETS); ``air_preset_changes`` turns either into AtmosphereParams fields
+(`python -m lut_gen bake --preset NAME`).
 
 Aerosol optical depths at 550 nm: a hazy summer day over land about 0.3 (AERONET's continental
 summer means are 0.2-0.4), clean mountain air about 0.03 (high-altitude stations, 0.02-0.05).
@@ -20,6 +22,11 @@ REFERENCE_NM = 550.0
 AIR_PRESETS = {
     "hazy-summer-day": 0.3,
     "clean-mountain-air": 0.03,
+}
+# Fog presets: (visibility m, scale height m). Morning fog in a valley: a radiation fog a few
+# tens of metres deep, a few hundred metres' visibility at the ground (issue 26).
+FOG_PRESETS = {
+    "morning-fog": (300.0, 50.0),
 }
 
 
@@ -44,3 +51,15 @@ def preset_density(name: str, params: AtmosphereParams | None = None) -> float:
     if name not in AIR_PRESETS:
         raise ValueError(f"unknown air preset {name!r}; choose one of {', '.join(AIR_PRESETS)}")
     return aerosol_density_for(AIR_PRESETS[name], params)
+
+
+def air_preset_changes(name: str, params: AtmosphereParams | None = None) -> dict:
+    """The AtmosphereParams fields that air preset ``name`` sets on ``params`` (default: the clear
+    sky): the aerosol density of a haze (AIR_PRESETS), the fog's visibility and height of a fog
+    (FOG_PRESETS). ValueError naming every air preset for an unknown one."""
+    if name in AIR_PRESETS:
+        return {"aerosol_density": preset_density(name, params)}
+    if name in FOG_PRESETS:
+        visibility, height = FOG_PRESETS[name]
+        return {"fog_visibility": visibility, "fog_height": height}
+    raise ValueError(f"unknown air preset {name!r}; choose one of {', '.join([*AIR_PRESETS, *FOG_PRESETS])}")

@@ -256,8 +256,10 @@ def check_output_directory(directory, key: str, *, overwrite: bool = False, opti
         if header:
             if can_overwrite:
                 _check_layout(directory, header)
+                _check_baker(directory, header, "choose another directory, or pass --overwrite to replace them")
             else:
                 _check_layout(directory, header, f"re-bake into an empty {option} directory, or delete them")
+                _check_baker(directory, header, f"re-bake into an empty {option} directory, or delete them")
         raise LutError(f"{directory} holds a different bake ({existing}); " + _remedy("it", option, can_overwrite))
     return directory
 
@@ -339,6 +341,23 @@ def _check_layout(directory, header: dict, remedy: str = "re-bake into an empty 
     if version != str(LAYOUT_VERSION):
         raise LutError(f"{directory} holds tables of layout version {version}; this version reads layout "
                        f"{LAYOUT_VERSION} (spectral tables with single Mie scattering apart): {remedy}")
+
+
+# The first baker whose bakes hold the fog tables (FOG_FILES) where their params have fog.
+FIRST_FOG_BAKER = 7
+
+
+def _check_baker(directory, header: dict, remedy: str = "re-bake it (python -m lut_gen bake --out DIR "
+                                                         "--overwrite, or Bake Tables in Blender)"):
+    """A bake by another baker version holds other numbers for the same params (its key differs):
+    say so, rather than that its header does not match its tables."""
+    version = header.get(PREFIX + "baker_version")
+    if version == str(BAKER_VERSION):
+        return
+    older = version is not None and version.isdigit() and int(version) < FIRST_FOG_BAKER
+    what = " (the layout before fog: no fog tables)" if older else ""
+    raise LutError(f"{directory} holds tables of baker version {version}{what}; this version reads baker "
+                   f"{BAKER_VERSION}: {remedy}")
 
 
 UNREADABLE = "unreadable files"
@@ -448,6 +467,7 @@ def load(directory, *, params: Optional[AtmosphereParams] = None) -> Luts:
             headers[name], images[name] = _read_image(directory / filename)
     first = headers["multiple"]
     _check_layout(directory, first)
+    _check_baker(directory, first)
     keys = {name: h.get(PREFIX + "bake_key") for name, h in headers.items()}
     if len(set(keys.values())) != 1:
         raise LutError(f"{directory} mixes files of different bakes ({keys}); re-bake it")

@@ -258,3 +258,39 @@ def test_sample_reads_a_read_only_folder_that_holds_its_bake(tmp_path, monkeypat
     assert cli.main(["sample", "--luts", str(tmp_path / "l"), "--out", str(tmp_path / "s.png"), *SMALL,
                      "--quiet"]) == 0, capsys.readouterr().err
     assert "cache hit" in capsys.readouterr().out and (tmp_path / "s.png").exists()
+
+
+def test_an_unknown_fog_preset_is_named_and_nothing_is_written(tmp_path):
+    result = run("bake", "--out", str(tmp_path / "l"), *SMALL, "--preset", "evening-fog")
+    assert result.returncode == 1 and result.stderr.strip().count("\n") == 0
+    assert ("unknown preset 'evening-fog'; choose one of clear-sky, sample-2013, hazy-summer-day, "
+            "clean-mountain-air, morning-fog") in result.stderr
+    assert not (tmp_path / "l").exists()
+
+
+def test_the_morning_fog_preset_bakes_its_fog(tmp_path):
+    result = run("bake", "--out", str(tmp_path / "l"), *SMALL, "--preset", "morning-fog", "--quiet")
+    assert result.returncode == 0, result.stderr
+    import lut_gen
+    params = lut_gen.load(tmp_path / "l").params
+    assert (params.fog_visibility, params.fog_height) == (300.0, 50.0)
+    assert params.aerosol_density == lut_gen.AtmosphereParams().aerosol_density
+
+
+def test_a_bake_of_the_previous_layout_is_refused_and_kept(tmp_path):
+    """A directory baked by baker 6 (before fog, no fog tables) is refused by bake, sample and
+    pass in one line each, and left as it was."""
+    env = {"PYTHONPATH": str(ROOT)}
+    script = ("import sys, lut_gen, lut_gen.store.exr_io as e; e.BAKER_VERSION = 6; "
+              "lut_gen.save(lut_gen.bake(resolution=(8, 16, 8, 4), orders=2), sys.argv[1])")
+    made = subprocess.run([sys.executable, "-c", script, str(tmp_path / "l")], capture_output=True, text=True,
+                          env=dict(os.environ, **env), timeout=300)
+    assert made.returncode == 0, made.stderr
+    before = {p.name: p.read_bytes() for p in (tmp_path / "l").iterdir()}
+    for args in (("bake", "--out", str(tmp_path / "l"), *SMALL, "--preset", "morning-fog"),
+                 ("sample", "--luts", str(tmp_path / "l"), "--out", str(tmp_path / "s.png"), *SMALL)):
+        result = run(*args)
+        assert result.returncode == 1 and result.stderr.strip().count("\n") == 0, result.stderr
+        assert "baker version 6 (the layout before fog: no fog tables); this version reads baker 7" in result.stderr
+        assert {p.name: p.read_bytes() for p in (tmp_path / "l").iterdir()} == before
+    assert not (tmp_path / "s.png").exists()

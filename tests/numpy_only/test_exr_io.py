@@ -190,3 +190,30 @@ def test_builtin_writer_and_header_reader_agree_with_openexr(small_luts, tmp_pat
         for folder in ("zip", "plain"):
             got = exr_min.read_string_attributes(tmp_path / folder / name)
             assert {k: v for k, v in got.items() if k.startswith("ols.")} == want
+
+
+def _previous_layout(small_luts, directory, monkeypatch):
+    """A bake as baker version 6 wrote it (before fog: the six files, no fog tables, its key)."""
+    with monkeypatch.context() as patch:
+        patch.setattr(lut_gen.store.exr_io, "BAKER_VERSION", 6)
+        lut_gen.save(small_luts, directory)
+    assert not any(directory.glob("*fog*"))
+    return {p.name: p.read_bytes() for p in directory.iterdir()}
+
+
+def test_a_bake_of_the_previous_layout_is_refused_clearly_and_kept(small_luts, tmp_path, monkeypatch):
+    old = tmp_path / "old"
+    before = _previous_layout(small_luts, old, monkeypatch)
+    with pytest.raises(LutError, match=r"baker version 6 \(the layout before fog: no fog tables\); this version "
+                                       r"reads baker 7: re-bake it"):
+        lut_gen.load(old)
+    fog = lut_gen.bake(lut_gen.AtmosphereParams(fog_visibility=1000.0), resolution=(8, 16, 8, 4), orders=2)
+    with pytest.raises(LutError, match="baker version 6 .*pass --overwrite to replace them"):
+        lut_gen.save(fog, old)
+    assert {p.name: p.read_bytes() for p in old.iterdir()} == before
+    # The cache never hits it (its key names baker 6) and never writes into it.
+    with pytest.raises(LutError, match="baker version 6"):
+        lut_gen.cached_bake(fog.params, resolution=(8, 16, 8, 4), orders=2, directory=old)
+    assert {p.name: p.read_bytes() for p in old.iterdir()} == before
+    lut_gen.save(fog, old, overwrite=True)
+    assert lut_gen.load(old).single_fog is not None
