@@ -20,7 +20,7 @@ import bpy
 
 from .. import lut_gen
 from ..lut_gen.clouds.presets import CLOUD_PRESETS
-from ..lut_gen.model.air_presets import AIR_PRESETS, preset_density
+from ..lut_gen.model.air_presets import AIR_PRESETS, FOG_PRESETS
 from . import baking
 from .progress_lines import ProgressLines, render_progress
 from .scene import names
@@ -28,7 +28,7 @@ from .scene import sun as sun_lamps
 from .scene.frame import adaptation, adaptation_plan
 from .scene.setup import checks, wiring
 from .scene.tables import luts, packed_tables
-from .settings import atmosphere_params
+from .settings import apply_air_preset, atmosphere_params
 
 ENGINES = {"CYCLES": "CYCLES", "EEVEE": "BLENDER_EEVEE"}
 # Looks for the sample scene (and any scene): sun (elevation, azimuth from +Y toward +X, in degrees)
@@ -79,9 +79,10 @@ def parse_args(argv):
     parser.add_argument("--engine", choices=sorted(ENGINES), default="CYCLES")
     parser.add_argument("--resolution", default=None, help="WIDTHxHEIGHT (default: the scene's)")
     parser.add_argument("--samples", type=_positive_int, default=None, help="render samples (default: the scene's)")
-    parser.add_argument("--preset", choices=sorted(PRESETS) + sorted(AIR_PRESETS), default=None,
+    parser.add_argument("--preset", choices=sorted(PRESETS) + sorted(AIR_PRESETS) + sorted(FOG_PRESETS), default=None,
                         help="a look: sun and exposure (explicit --sun-elevation / --sun-azimuth win); or an "
-                             "air preset: the day's haze (aerosol optical depth 0.3 or 0.03 at 550 nm)")
+                             "air preset: the day's haze (aerosol optical depth 0.3 or 0.03 at 550 nm, no fog) "
+                             "or morning fog (300 m visibility, 50 m deep)")
     parser.add_argument("--clouds", choices=sorted(CLOUD_PRESETS), default=None,
                         help="turn the cloud layer on with this preset")
     parser.add_argument("--cloud-coverage", type=_finite_float, default=None,
@@ -167,8 +168,8 @@ def apply_options(scene, args):
     if getattr(args, "compositor_device", None):
         scene.render.compositor_device = args.compositor_device
     sun = sun_lamps.find_sun(scene)
-    if args.preset in AIR_PRESETS:
-        scene.ols.aerosol_density = preset_density(args.preset, atmosphere_params(scene.ols))
+    if args.preset in AIR_PRESETS or args.preset in FOG_PRESETS:
+        apply_air_preset(scene.ols, args.preset)
     elif args.preset:
         look = PRESETS[args.preset]
         scene.ols.middle_gray = look["middle_gray"]

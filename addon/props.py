@@ -12,13 +12,13 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProp
 
 from ..lut_gen.clouds.layer import RANGES as CLOUD_RANGES
 from ..lut_gen.clouds.presets import CLOUD_PRESETS
-from ..lut_gen.model.air_presets import AIR_PRESETS, preset_density
+from ..lut_gen.model.air_presets import AIR_PRESETS, FOG_PRESETS
 from ..lut_gen.model.atmosphere import DEFAULT_GROUND_ALBEDO
 from . import baking
 from .scene import clouds, names
 from .scene.setup import compositor
-from .settings import (DEFAULT_MIE_COLOR, FOG_HEIGHT_MAX_M, FOG_HEIGHT_MIN_M, FOG_VISIBILITY_MAX_M, DEFAULT_RAYLEIGH_COLOR, WITHOUT_EFFECT,
-                       atmosphere_params)
+from .settings import (DEFAULT_MIE_COLOR, DEFAULT_RAYLEIGH_COLOR, FOG_HEIGHT_MAX_M, FOG_HEIGHT_MIN_M,
+                       FOG_VISIBILITY_MAX_M, WITHOUT_EFFECT, apply_air_preset)
 
 REBAKE_DELAY_S = 0.75     # wait for a slider drag to settle before re-baking
 
@@ -54,9 +54,8 @@ def _sync_clouds(settings, context):
 
 def _apply_air_preset(settings, context):
     key = settings.air_preset.lower().replace("_", "-")
-    if key in AIR_PRESETS:
-        # Its own update re-bakes the tables.
-        settings.aerosol_density = preset_density(key, atmosphere_params(settings))
+    if key in AIR_PRESETS or key in FOG_PRESETS:
+        apply_air_preset(settings, key)     # the controls' own updates re-bake the tables
 
 
 def _apply_cloud_preset(settings, context):
@@ -375,11 +374,15 @@ class OLSSettings(bpy.types.PropertyGroup):
     )
     air_preset: EnumProperty(
         name="Air Preset",
-        description="Set the aerosol density for a common day's haze, by its aerosol optical depth at 550 nm "
-                    "(the clear sky's is 0.11; the control stays editable; the tables are re-baked)",
-        items=(("CUSTOM", "Custom", "The aerosol density as set"),
+        description="Set the air of a common day: a haze by its aerosol optical depth at 550 nm (the clear "
+                    "sky's is 0.11), or a fog by its visibility and depth (the controls stay editable; the "
+                    "tables are re-baked)",
+        items=(("CUSTOM", "Custom", "The aerosol density and fog as set"),
                *((key.upper().replace("-", "_"), key.replace("-", " ").capitalize(),
-                  f"Aerosol optical depth {depth:g} at 550 nm") for key, depth in AIR_PRESETS.items())),
+                  f"Aerosol optical depth {depth:g} at 550 nm, no fog") for key, depth in AIR_PRESETS.items()),
+               *((key.upper().replace("-", "_"), key.replace("-", " ").capitalize(),
+                  f"Fog of {visibility:g} m visibility, {height:g} m deep (the haze as set)")
+                 for key, (visibility, height) in FOG_PRESETS.items())),
         default="CUSTOM",
         update=_apply_air_preset,
     )

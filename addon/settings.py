@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 
+from ..lut_gen.model.air_presets import AIR_PRESETS, air_preset_changes
 from ..lut_gen.model.atmosphere import DEFAULT_RAYLEIGH_SCATTERING, AtmosphereParams, preset
 from ..lut_gen.passes import render_detail
 
@@ -169,6 +170,18 @@ def fog_fields(settings) -> dict:
         return {}
     return {"fog_visibility": max(visibility, FOG_VISIBILITY_MIN_M),
             "fog_height": _f32_value(safe_value(settings, "fog_height"))}
+
+
+def apply_air_preset(settings, name: str) -> None:
+    """Set the controls of air preset ``name`` (lut_gen.model.air_presets: "hazy-summer-day",
+    "morning-fog", ...) on ``settings``: a haze sets the aerosol density and clears any fog (the
+    preset is that day's air), a fog sets its visibility and height and keeps the haze.
+    ValueError naming the presets for an unknown one, before anything changes."""
+    changes = air_preset_changes(name, atmosphere_params(settings))
+    if name in AIR_PRESETS:
+        changes["fog_visibility"] = 0.0
+    for field, value in changes.items():
+        setattr(settings, field, value)
 
 
 def atmosphere_params(settings) -> AtmosphereParams:

@@ -93,7 +93,7 @@ def test_every_control_is_a_property(addon_package):
     assert set(names) - set(settings.WITHOUT_EFFECT) == {
         "scattering_scale", "use_custom_scattering_coeffs", "rayleigh_color", "mie_color",
         "air_preset", "aerosol_density", "aerosol_absorption", "atmosphere_preset", "ground_albedo", "ozone_column",
-        "animate_sun",
+        "fog_visibility", "fog_height", "animate_sun",
         "day_start_frame", "day_end_frame",
         "middle_gray", "white_point", "luminance_saturation", "auto_exposure", "tone_mapping_operator",
         "light_adaptation", "tone_map_exr", "enable_light_scattering", "lighting_only", "enable_light_shafts",
@@ -284,9 +284,9 @@ def test_panel(scene, addon_package):
         assert [entry[1] for entry in drawn[1:]] == names
         for _, name, active, enabled in drawn[1:]:
             assert active == (name not in settings.WITHOUT_EFFECT), name
-            if name in ("rayleigh_color", "mie_color", "day_start_frame", "day_end_frame", "jitter_steps") or (
-                    name.startswith("cloud_")):
-                # custom coefficients, Animate Sun and clouds are off by default; jitter is
+            if name in ("rayleigh_color", "mie_color", "day_start_frame", "day_end_frame", "jitter_steps",
+                        "fog_height") or name.startswith("cloud_"):
+                # custom coefficients, Animate Sun, fog and clouds are off by default; jitter is
                 # brute force's, and the default technique is epipolar sampling
                 assert enabled is False
             else:

@@ -422,3 +422,28 @@ def test_air_presets_set_the_haze_from_the_panel_and_the_command_line(batch, add
     assert abs(air.aerosol_optical_depth(settings.atmosphere_params(scene.ols)) - 0.3) < 1e-4
     batch.apply_options(scene, batch.parse_args(["--preset", "noon", "--output", "x.png"]))
     assert abs(scene.ols.aerosol_density - 2.7273) < 1e-3
+
+
+def test_morning_fog_preset_from_the_panel_and_the_command_line(batch, addon_package):
+    """"Morning fog" sets the fog (300 m visibility, 50 m deep) and keeps the haze; a haze preset
+    clears it again; an unknown preset is refused by the parser with the choices named."""
+    settings = extension_module("addon.settings")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.collection.objects.link(bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN")))
+    scene.ols.aerosol_density = 2.0
+    scene.ols.air_preset = "MORNING_FOG"
+    params = settings.atmosphere_params(scene.ols)
+    assert params.has_fog and params.fog_visibility == 300.0 and params.fog_height == 50.0
+    assert params.aerosol_density == 2.0
+    scene.ols.air_preset = "HAZY_SUMMER_DAY"
+    assert not settings.atmosphere_params(scene.ols).has_fog
+    batch.apply_options(scene, batch.parse_args(["--preset", "morning-fog", "--output", "x.png"]))
+    assert settings.atmosphere_params(scene.ols).fog_visibility == 300.0
+    # Visibility between 0 and 100 m reads as 100 m; 0 is no fog; NaN reads as the default (none).
+    scene.ols.fog_visibility = 20.0
+    assert settings.atmosphere_params(scene.ols).fog_visibility == 100.0
+    scene.ols["fog_visibility"] = float("nan")
+    assert not settings.atmosphere_params(scene.ols).has_fog
+    with pytest.raises(SystemExit):
+        batch.parse_args(["--preset", "morning-mist", "--output", "x.png"])
