@@ -81,14 +81,24 @@ def mie_phase(g, cos_theta, mie_g):
     return g.div(g.mul(g.mul_add(cos_theta, cos_theta, 1.0), norm), peak)
 
 
-def ground_ray_scale(g, h, cos_view, above, earth_radius):
+def ground_ray_length(g, h, params):
+    """lut_gen.tables.parameterization.ground_ray_length."""
+    if not params.has_fog:
+        return geometry.GROUND_RAY_SCALE_M
+    return g.math("MINIMUM", g.div(g.math("EXPONENT", g.math("MINIMUM", g.div(h, params.fog_height), 50.0)), params.fog),
+                  geometry.GROUND_RAY_SCALE_M)
+
+
+def ground_ray_scale(g, h, cos_view, above, params):
     """lut_gen.model.geometry.ground_ray_scale for the half of the view axis the look-up used."""
+    earth_radius = params.earth_radius
     distance = g.math("MAXIMUM", distance_to_ground(g, h, cos_view, earth_radius), geometry.MIN_GROUND_RAY_M)
-    length = geometry.GROUND_RAY_SCALE_M
+    length = ground_ray_length(g, h, params)
     # l (1 - exp(-x)) as 2 l exp(-x/2) sinh(x/2): float32 keeps its precision for short rays.
     # Clamped: sinh overflows for the huge distances of rays that miss the ground (0 x inf).
-    half = g.math("MINIMUM", g.div(distance, 2.0 * length), 20.0)
-    scale = g.mul(g.mul(g.math("EXPONENT", g.mul(half, -1.0)), g.math("SINH", half)), 2.0 * length)
+    twice = 2.0 * length if isinstance(length, float) else g.mul(length, 2.0)
+    half = g.math("MINIMUM", g.div(distance, twice), 20.0)
+    scale = g.mul(g.mul(g.math("EXPONENT", g.mul(half, -1.0)), g.math("SINH", half)), twice)
     return g.lerp(scale, 1.0, above)
 
 
@@ -205,7 +215,7 @@ def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=Fal
         radiance = g.vmath("ADD", radiance, g.vscale(interpolated(mie_image), mie_phase(g, c_t, params.mie_g)))
         if params.has_fog:
             radiance = g.vmath("ADD", radiance, g.vscale(interpolated(fog_image), mie_phase(g, c_t, params.fog_g)))
-    scale = ground_ray_scale(g, h, gin.outputs["Cos View Zenith"], above, params.earth_radius)
+    scale = ground_ray_scale(g, h, gin.outputs["Cos View Zenith"], above, params)
     g.links.new(g.vscale(radiance, scale), gout.inputs["Radiance"])
     return tree
 

@@ -39,7 +39,7 @@ def ray_length(params, r, cos_zenith, hits_ground):
     return np.where(hits_ground, np.minimum(to_ground, to_top), to_top)
 
 
-def ground_ray_scale(r, cos_zenith, hits_ground, earth_radius):
+def ground_ray_scale(r, cos_zenith, hits_ground, earth_radius, length=GROUND_RAY_SCALE_M):
     """The factor the 4D tables are divided by: S(d) = l (1 - exp(-d / l)) for rays on the
     ground half of the view axis (d: their length, at least MIN_GROUND_RAY_M), 1 for the others.
 
@@ -47,9 +47,10 @@ def ground_ray_scale(r, cos_zenith, hits_ground, earth_radius):
     the ground as h / cos; interpolating it across the height nodes (0, 83 m, 333 m, ...) made
     the rays of a camera a few metres up 2x to 7x too bright. L / S(d) tends to the scattering
     density at the ray start instead, which interpolates well; S saturates for long rays,
-    whose radiance does too."""
+    whose radiance does too. ``length``: l, GROUND_RAY_SCALE_M or shorter (in fog, see
+    parameterization.ground_ray_length)."""
     d = np.maximum(distance_to_ground(r, cos_zenith, earth_radius), MIN_GROUND_RAY_M)
-    scale = GROUND_RAY_SCALE_M * -np.expm1(-d / GROUND_RAY_SCALE_M)
+    scale = length * -np.expm1(-d / length)
     return np.where(hits_ground, scale, 1.0)
 
 
