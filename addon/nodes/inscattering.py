@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import bpy
 
-from ...lut_gen.passes.aerial import HORIZON_BLEND, HORIZON_BLEND_HEIGHT
+from ...lut_gen.passes.aerial import HORIZON_BLEND, HORIZON_BLEND_HEIGHT, uses_horizon_blend
 from .builder import group_io, new_group
 from .optical import horizon_cos, point_frame
 from ..scene import names
@@ -59,7 +59,7 @@ def section_inscattering(g, table, start, end, direction, sun, start_transmittan
     """max(T_start L(start) - T_end L(end), 0) for world points ``start`` and ``end``; within
     HORIZON_BLEND of the start's horizon (narrowed for long sections), the blend of eq. (8) along
     the rays just below and just above the horizon (Bruneton's fix for the step the seam draws;
-    twin: lut_gen.passes.aerial.section_inscattering)."""
+    not in fog: uses_horizon_blend; twin: lut_gen.passes.aerial.section_inscattering)."""
     start_frame = point_frame(g, start, params)
     height, up = start_frame
 
@@ -71,6 +71,8 @@ def section_inscattering(g, table, start, end, direction, sun, start_transmittan
         return g.vmath("MAXIMUM", g.vmath("SUBTRACT", near, g.vmath("MULTIPLY", end_transmittance, far)), (0.0, 0.0, 0.0))
 
     plain = eq8(direction, end)
+    if not uses_horizon_blend(params):
+        return plain
     c_h = horizon_cos(g, height, params)
     offset = g.sub(g.vmath("DOT_PRODUCT", direction, up), c_h)
     length = g.vmath("LENGTH", g.vmath("SUBTRACT", end, start))
