@@ -120,7 +120,8 @@ def safe_value(settings, name: str):
     ID-property write bypasses it) is clamped into it. One NaN control turned the whole
     composite NaN before."""
     value = getattr(settings, name)
-    prop = settings.bl_rna.properties.get(name)
+    rna = getattr(settings, "bl_rna", None)         # None: a plain object standing in for scene.ols
+    prop = rna.properties.get(name) if rna is not None else None
     if prop is None or prop.type not in {"FLOAT", "INT"} or getattr(prop, "array_length", 0):
         return value
     if prop.type == "FLOAT" and not math.isfinite(value):

@@ -50,7 +50,10 @@ def test_atmosphere_params_of_the_default_controls_are_the_default_tables():
     defaults = SimpleNamespace(atmosphere_preset="CLEAR_SKY", use_custom_scattering_coeffs=False,
                                rayleigh_color=settings_module.DEFAULT_RAYLEIGH_COLOR,
                                mie_color=settings_module.DEFAULT_MIE_COLOR, aerosol_density=1.0,
-                               aerosol_absorption=0.1, ground_albedo=0.2, ozone_column=300.0)
+                               aerosol_absorption=0.1, ground_albedo=0.2, ozone_column=300.0,
+                               fog_visibility=0.0, fog_height=50.0)
     assert settings_module.atmosphere_params(defaults) == lut_gen.AtmosphereParams()
+    foggy = settings_module.atmosphere_params(SimpleNamespace(**{**vars(defaults), "fog_visibility": 300.0}))
+    assert foggy == lut_gen.AtmosphereParams(fog_visibility=300.0, fog_height=50.0)
     hazy = settings_module.atmosphere_params(SimpleNamespace(**{**vars(defaults), "aerosol_density": 3.0}))
     assert hazy.aerosol_density == 3.0 and hazy != lut_gen.AtmosphereParams()
