@@ -12,6 +12,7 @@ from typing import Callable
 from ..scene import names
 from . import builder, epipolar, frame_values, lookup  # noqa: F401 (their helpers are used as nodes.<module>.<name>)
 from .aerial import build_aerial_group
+from .analytic import build_analytic_aerial_group, build_analytic_sky_group
 from .cloud_shadow import build_cloud_shadow_group
 from .cloud_veil import build_cloud_veil_group, build_cloud_veil_step_group
 from .clouds import build_cloud_group

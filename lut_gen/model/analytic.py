@@ -225,25 +225,32 @@ def ground_distance(cos_view, height):
         return np.where(c < 0.0, np.maximum(h, 1e-3) / np.maximum(-c, 1e-9), np.inf)
 
 
-def sky_radiance(m: AnalyticMedia, height, view, sun):
-    """Radiance of the analytic sky per unit E0 for view directions ``view`` (..., 3, unit, +Z up)
+def sky_parts(m: AnalyticMedia, height, view, sun):
+    """(air light, ground light) per unit E0 for view directions ``view`` (..., 3, unit, +Z up)
     from a camera ``height`` m up, the sun toward ``sun`` (3,): the sky's two shells, or below the
-    horizon the air to the ground plus the lit ground, whichever the ray meets first. No sun disc
-    (the groups add it, as the precomputed sky does)."""
+    horizon the air to the ground and the lit ground seen through it, whichever the ray meets
+    first. Kept apart because the groups scale the air's light by the Scattering Scale and the
+    ground's not, as the precomputed sky does. No sun disc (the groups add it)."""
     view = np.asarray(view, dtype=np.float64)
     sun = np.asarray(sun, dtype=np.float64)
     cos_view = view[..., 2]
     cos_sun_view = view @ sun
     e_sun = sun_transmittance(m, sun[2], height)
-    s_air, s_haze = sky_lengths(m, np.abs(cos_view) * (cos_view >= 0.0), height)
+    s_air, s_haze = sky_lengths(m, cos_view, height)
     sky = sky_inscattering(m, cos_sun_view, s_air, s_haze, e_sun)
     distance = ground_distance(cos_view, height)
     hits = distance < s_air
     air = math.exp(-max(height, 0.0) / m.air_length)
     haze = math.exp(-max(height, 0.0) / m.haze_length)
     t, inscatter = segment(m, cos_sun_view, np.where(hits, distance, 0.0), e_sun, air, haze)
-    ground = m.ground_albedo / math.pi * max(float(sun[2]), 0.0) * e_sun * t + inscatter
-    return np.where(hits[..., None], ground, sky)
+    ground = m.ground_albedo / math.pi * max(float(sun[2]), 0.0) * e_sun * t
+    return np.where(hits[..., None], inscatter, sky), ground * hits[..., None]
+
+
+def sky_radiance(m: AnalyticMedia, height, view, sun):
+    """The analytic sky per unit E0: sky_parts' air and ground light together."""
+    air, ground = sky_parts(m, height, view, sun)
+    return air + ground
 
 
 def segment_densities(m: AnalyticMedia, start, end):

@@ -1,0 +1,173 @@
+"""The analytic model's node groups (Hoffman & Preetham, lut_gen.model.analytic): no tables, no
+images, every coefficient a constant of the group, so a changed slider rebuilds them in a few
+milliseconds instead of re-baking.
+
+They are built under the precomputed groups' names ("OLS Sky", "OLS Aerial Perspective", "OLS
+Terrain") with the same interfaces, so the world, the compositor, the materials, their drivers
+and the frame values are wired the same way under either model; only what the groups compute
+differs. Inputs only the precomputed groups use (the clouds, "Light Shafts") are accepted and
+ignored. Twins: lut_gen.model.analytic.sky_parts, aerial_perspective and terrain_radiance.
+"""
+from __future__ import annotations
+
+import math
+
+from ...lut_gen.model import analytic
+from .aerial import INPUTS as AERIAL_INPUTS
+from .builder import group_io, new_group
+from .sky import INPUTS as SKY_INPUTS, limb_darkened_disc
+from .terrain import INPUTS as TERRAIN_INPUTS, MIN_ORIGIN_TRANSMITTANCE
+from ..scene import names
+
+# Below this optical depth (1 - exp(-x)) / x is its series: float32 loses 1 - exp(-x) to
+# cancellation (x = 1e-5, a metre of air: 0.6% off).
+SERIES_BELOW = 1e-2
+# exp's argument floor, as optical.transmittance_from_net_density keeps it.
+MAX_DEPTH = 80.0
+
+
+def _exp_neg(g, x):
+    return g.math("EXPONENT", g.mul(g.math("MINIMUM", x, MAX_DEPTH), -1.0))
+
+
+def air_mass(g, cos_zenith):
+    """analytic.air_mass: Eq. 5 over l_zenith, clamped at the horizon."""
+    c = g.clamp(cos_zenith, 0.0, 1.0)
+    theta = g.mul(g.math("ARCCOSINE", c), 180.0 / math.pi)
+    return g.div(1.0, g.add(c, g.mul(0.15, g.math("POWER", g.sub(93.885, theta), -1.253))))
+
+
+def sun_visibility(g, cos_sun):
+    elevation = g.math("ARCSINE", g.clamp(cos_sun, -1.0, 1.0))
+    r = analytic.SUN_RADIUS_RAD
+    return g.clamp(g.div(g.add(elevation, r), 2 * r), 0.0, 1.0)
+
+
+def densities(g, m, height):
+    """Air and haze densities relative to the ground at ``height`` (>= 0)."""
+    return (g.math("EXPONENT", g.div(height, -m.air_length)), g.math("EXPONENT", g.div(height, -m.haze_length)))
+
+
+def sun_transmittance(g, m, cos_sun, height):
+    """analytic.sun_transmittance: three channel sockets."""
+    mass = air_mass(g, cos_sun)
+    air, haze = densities(g, m, height)
+    s_air, s_haze = g.mul(g.mul(mass, m.air_length), air), g.mul(g.mul(mass, m.haze_length), haze)
+    visible = sun_visibility(g, cos_sun)
+    return [g.mul(_exp_neg(g, g.add(g.mul(s_air, float(m.rayleigh[i])), g.mul(s_haze, float(m.haze_extinction[i])))),
+                  visible) for i in range(3)]
+
+
+def phases(g, m, cos_sun_view):
+    """(Rayleigh, Henyey-Greenstein) phase of the sun-view angle."""
+    c = g.clamp(cos_sun_view, -1.0, 1.0)
+    rayleigh = g.mul(g.mul_add(c, c, 1.0), 3.0 / (16.0 * math.pi))
+    gg = m.g
+    base = g.math("MAXIMUM", g.mul_add(c, -2.0 * gg, 1.0 + gg * gg), 1e-6)
+    haze = g.div((1.0 - gg * gg) / (4.0 * math.pi), g.math("POWER", base, 1.5))
+    return rayleigh, haze
+
+
+def segment(g, m, phase, length, e_sun, air=1.0, haze=1.0):
+    """analytic.segment per channel: ([F_ex], [L_in]) for a constant-density segment."""
+    rayleigh_phase, haze_phase = phase
+    transmittance, inscatter = [], []
+    for i in range(3):
+        air_beta = m.rayleigh[i] * air if isinstance(air, float) else g.mul(air, float(m.rayleigh[i]))
+        haze_beta = m.haze_extinction[i] * haze if isinstance(haze, float) else g.mul(haze, float(m.haze_extinction[i]))
+        beta = air_beta + haze_beta if isinstance(air_beta, float) and isinstance(haze_beta, float) else g.add(air_beta, haze_beta)
+        depth = g.mul(length, beta)
+        t = _exp_neg(g, depth)
+        # (1 - exp(-x)) / x, its series below SERIES_BELOW; times the length gives the reach
+        exact = g.div(g.sub(1.0, t), g.math("MAXIMUM", depth, 1e-30))
+        series = g.mul_add(depth, g.mul_add(depth, 1.0 / 6.0, -0.5), 1.0)
+        small = g.math("LESS_THAN", depth, SERIES_BELOW)
+        reach = g.mul(g.select(exact, series, small), length)
+        air_sc = m.rayleigh[i] * air if isinstance(air, float) else g.mul(air, float(m.rayleigh[i]))
+        haze_sc = m.haze_scattering[i] * haze if isinstance(haze, float) else g.mul(haze, float(m.haze_scattering[i]))
+        angular = g.add(g.mul(rayleigh_phase, air_sc), g.mul(haze_phase, haze_sc))
+        transmittance.append(t)
+        inscatter.append(g.mul(g.mul(angular, reach), e_sun[i]))
+    return transmittance, inscatter
+
+
+def sky_parts(g, m, view, sun, height):
+    """analytic.sky_parts: ([air light], [ground light]) per unit E0, and E_sun."""
+    cos_view = g.separate(view)[2]
+    cos_sun = g.separate(sun)[2]
+    phase = phases(g, m, g.vmath("DOT_PRODUCT", view, sun))
+    e_sun = sun_transmittance(g, m, cos_sun, height)
+    air, haze = densities(g, m, height)
+    mass = air_mass(g, cos_view)
+    s_air = g.mul(g.mul(mass, m.air_length), air)
+    s_haze = g.math("MINIMUM", g.mul(g.mul(mass, m.haze_length), haze), s_air)
+    inner_t, inner = segment(g, m, phase, s_haze, e_sun)
+    _, outer = segment(g, m, phase, g.sub(s_air, s_haze), e_sun, 1.0, 0.0)
+    sky = [g.mul_add(inner_t[i], outer[i], inner[i]) for i in range(3)]
+    # Below the horizon: the flat ground at h / -cos, when nearer than the sky's length.
+    down = g.math("LESS_THAN", cos_view, 0.0)
+    distance = g.div(g.math("MAXIMUM", height, 1e-3), g.math("MAXIMUM", g.mul(cos_view, -1.0), 1e-9))
+    hits = g.mul(down, g.math("LESS_THAN", distance, s_air))
+    ground_t, ground_air = segment(g, m, phase, g.mul(distance, hits), e_sun, air, haze)
+    lit = g.mul(g.math("MAXIMUM", cos_sun, 0.0), m.ground_albedo / math.pi)
+    air_light = [g.select(sky[i], ground_air[i], hits) for i in range(3)]
+    ground_light = [g.mul(g.mul(g.mul(lit, e_sun[i]), ground_t[i]), hits) for i in range(3)]
+    return air_light, ground_light, e_sun
+
+
+def build_analytic_sky_group(params):
+    """"OLS Sky" under the analytic model. Every ray evaluates the formula (a few hundred math
+    nodes, no texture), camera rays with the limb-darkened sun disc; diffuse and scatter rays
+    only with "Light Scene", glossy rays always, as in the precomputed group."""
+    m = analytic.media(params)
+    tree = new_group(names.SKY_GROUP)
+    g, gin, gout = group_io(tree, SKY_INPUTS, [("Color", "NodeSocketColor", None), ("Background", "NodeSocketShader", None)])
+    view = g.vmath("NORMALIZE", g.node("ShaderNodeTexCoord").outputs["Generated"])
+    sun = g.vmath("NORMALIZE", gin.outputs["Sun Direction"])
+    height = g.math("MAXIMUM", gin.outputs["Camera Height"], 0.0)
+    strength = gin.outputs["Sun Strength"]
+    air_light, ground_light, e_sun = sky_parts(g, m, view, sun, height)
+    scale = g.mul(strength, gin.outputs["Scattering Scale"])
+    surroundings = g.vmath("ADD", g.vscale(g.combine(*air_light), scale), g.vscale(g.combine(*ground_light), strength))
+    disc = g.vmath("MULTIPLY", g.combine(*e_sun),
+                   g.vscale(limb_darkened_disc(g, g.vmath("DOT_PRODUCT", view, sun), gin.outputs["Sun Angle"]), strength))
+    camera_color = g.vmath("ADD", surroundings, disc)
+    light_path = g.node("ShaderNodeLightPath")
+    lit = g.math("MAXIMUM", light_path.outputs["Is Glossy Ray"], gin.outputs["Light Scene"])
+    color = g.vlerp(g.vscale(surroundings, lit), camera_color, light_path.outputs["Is Camera Ray"])
+    background = g.node("ShaderNodeBackground")
+    g.feed(background.inputs["Color"], color)
+    g.links.new(camera_color, gout.inputs["Color"])
+    g.links.new(background.outputs[0], gout.inputs["Background"])
+    return tree
+
+
+def build_analytic_aerial_group(params):
+    """"OLS Aerial Perspective" under the analytic model: Eq. 1 from the camera to each pixel's
+    point through air and haze at the densities of the segment's middle height, E_sun at the
+    camera's height. Sky pixels pass through, as in the precomputed group."""
+    m = analytic.media(params)
+    tree = new_group(names.AERIAL_GROUP, "CompositorNodeTree")
+    g, gin, gout = group_io(tree, AERIAL_INPUTS, [("Image", "NodeSocketColor", None),
+                                                  ("Transmittance", "NodeSocketColor", None),
+                                                  ("Inscattering", "NodeSocketColor", None)])
+    camera, point = gin.outputs["Camera Position"], gin.outputs["Position"]
+    sun = g.vmath("NORMALIZE", gin.outputs["Sun Direction"])
+    offset = g.vmath("SUBTRACT", point, camera)
+    length = g.vmath("LENGTH", offset)
+    cos_sun_view = g.div(g.vmath("DOT_PRODUCT", offset, sun), g.math("MAXIMUM", length, 1e-9))
+    camera_z, point_z = g.separate(camera)[2], g.separate(point)[2]
+    e_sun = sun_transmittance(g, m, g.separate(sun)[2], g.math("MAXIMUM", camera_z, 0.0))
+    middle = g.math("MAXIMUM", g.mul(g.add(camera_z, point_z), 0.5), 0.0)
+    air, haze = densities(g, m, middle)
+    transmittance, inscatter = segment(g, m, phases(g, m, cos_sun_view), length, e_sun, air, haze)
+    air_light = g.vscale(g.combine(*inscatter), g.mul(gin.outputs["Sun Strength"], gin.outputs["Scattering Scale"]))
+    geometry = g.mul(g.math("LESS_THAN", gin.outputs["Depth"], gin.outputs["Sky Depth"]), gin.outputs["Enable"])
+    kept = g.vscale(g.combine(*transmittance), g.sub(1.0, gin.outputs["Lighting Only"]))
+    layer_transmittance = g.vlerp((1.0, 1.0, 1.0), kept, geometry)
+    layer_inscattering = g.vscale(air_light, geometry)
+    result = g.vmath("ADD", g.vmath("MULTIPLY", gin.outputs["Image"], layer_transmittance), layer_inscattering)
+    g.links.new(g.with_alpha_of(gin.outputs["Image"], result), gout.inputs["Image"])
+    g.links.new(layer_transmittance, gout.inputs["Transmittance"])
+    g.links.new(layer_inscattering, gout.inputs["Inscattering"])
+    return tree
