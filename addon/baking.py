@@ -22,7 +22,6 @@ import bpy
 from .. import lut_gen
 from .scene import names
 from .scene.setup import wiring
-from .scene.tables import luts
 from .settings import atmosphere_params
 
 
@@ -43,12 +42,12 @@ def is_baked(params, resolution) -> bool:
 
 def swap_in(scene, directory, preview: bool = False):
     """Point an already wired scene at another bake (after a re-bake): rebuild the groups.
-    ``preview``: the bake stands in for the tables being baked (draft preview)."""
-    wiring.build_groups(directory, scene.render.engine)
-    scene[names.WIRED_KEY] = lut_gen.store.exr_io.verify_bake(directory)   # verified by build_groups: cached
+    ``preview``: the bake stands in for the tables being baked (draft preview). Not while the
+    scene asks for the analytic model: a bake started before the switch ends without a swap."""
+    if wiring.wants_analytic(scene):
+        return
     mark_preview(scene, preview)
-    wiring.refresh(scene, force=True)
-    luts.release_unused_images()
+    wiring.use_model(scene, directory)
 
 
 def settle(scene) -> bool:

@@ -269,11 +269,15 @@ def render(scene, args):
 
 
 def wire(scene, args):
+    terrain = [o for o in scene.objects if o.select_get() and o.type == "MESH"]
+    if wiring.wants_analytic(scene):
+        print("scene: wiring it to the analytic model (no tables)", flush=True)
+        wiring.wire_scene(scene, None, terrain, resolution=args.tables)
+        return
     print("scene: baking or finding the tables", flush=True)
     directory = baking.bake_if_needed(atmosphere_params(scene.ols).validate(), args.tables,
                                    progress=ProgressLines("bake"))
     print(f"scene: wiring it to the tables in {directory} (node groups, images, compositor)", flush=True)
-    terrain = [o for o in scene.objects if o.select_get() and o.type == "MESH"]
     wiring.wire_scene(scene, directory, terrain, resolution=args.tables)
     print("scene: wired; preparing the render", flush=True)
 
@@ -288,7 +292,7 @@ def main(argv=None) -> int:
                                  "libegl-mesa0 libgl1-mesa-dri); use --engine CYCLES")
             print(EGL_NOTE, flush=True)
         scene = prepare(args)
-        if scene.get(names.WIRED_KEY):
+        if scene.get(names.WIRED_KEY) and scene[names.WIRED_KEY] != names.ANALYTIC_WIRED:
             # A wired file: its tables were re-baked on load where they were missing or damaged
             # (handlers.on_file_loaded); never touch, let alone render, tables that still fail.
             luts.verify_wired(scene[names.WIRED_KEY])

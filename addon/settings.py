@@ -52,6 +52,7 @@ PROPERTIES_BY_SET = {
         "rayleigh_color",
         "mie_color",
         "air_preset",
+        "atmosphere_model",
         "aerosol_density",
         "aerosol_absorption",
         "atmosphere_preset",
@@ -219,3 +220,10 @@ def atmosphere_params(settings) -> AtmosphereParams:
         ozone_column=_f32_value(settings.ozone_column),
         **fog_fields(settings),
     )
+
+
+def analytic_params(settings) -> AtmosphereParams:
+    """The media of the analytic model (lut_gen.model.analytic): ``atmosphere_params`` of the
+    sanitized controls, so a NaN or out-of-range aerosol control reads as its default or its
+    bound instead of failing validation (the model clamps the rest)."""
+    return atmosphere_params(Sanitized(settings))

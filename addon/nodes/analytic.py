@@ -171,3 +171,50 @@ def build_analytic_aerial_group(params):
     g.links.new(layer_transmittance, gout.inputs["Transmittance"])
     g.links.new(layer_inscattering, gout.inputs["Inscattering"])
     return tree
+
+
+def ambient_irradiance(g, table, cos_sun):
+    """analytic.ambient_irradiance: the table's nodes as constants, linear between them (a sum
+    of hat functions), times the sun's visibility."""
+    nodes, values = table
+    x = g.mul(g.clamp(cos_sun, 0.0, 1.0), float(len(nodes) - 1))
+    total = (0.0, 0.0, 0.0)
+    for k, value in enumerate(values):
+        hat = g.math("MAXIMUM", g.sub(1.0, g.math("ABSOLUTE", g.sub(x, float(k)))), 0.0)
+        total = g.vmath("MULTIPLY_ADD", tuple(float(v) for v in value), g.combine(hat, hat, hat), total)
+    return g.vscale(total, sun_visibility(g, cos_sun))
+
+
+def build_analytic_terrain_group(params):
+    """"OLS Terrain" under the analytic model: the precomputed group's shading (nodes/terrain.py)
+    with Eq. 5's sun extinction at the point's height (over the origin's, which the lamp's colour
+    carries) and the analytic sky's own ambient skylight. +Z is up and z the height."""
+    m = analytic.media(params)
+    table = analytic.ambient_table(m)
+    tree = new_group(names.TERRAIN_GROUP)
+    g, gin, gout = group_io(tree, TERRAIN_INPUTS, [("Shader", "NodeSocketShader", None)])
+    geometry = g.node("ShaderNodeNewGeometry")
+    given = gin.outputs["Normal"]
+    has_normal = g.math("GREATER_THAN", g.vmath("LENGTH", given), 0.5)
+    normal = g.vmath("NORMALIZE", g.vlerp(geometry.outputs["Normal"], given, has_normal))
+    sun = g.vmath("NORMALIZE", gin.outputs["Sun Direction"])
+    cos_sun = g.separate(sun)[2]
+    height = g.math("MAXIMUM", g.separate(geometry.outputs["Position"])[2], 0.0)
+    extinction = g.combine(*sun_transmittance(g, m, cos_sun, height))
+    origin = g.vmath("MAXIMUM", gin.outputs["Origin Transmittance"], (MIN_ORIGIN_TRANSMITTANCE,) * 3)
+    albedo = gin.outputs["Albedo"]
+    diffuse = g.node("ShaderNodeBsdfDiffuse")
+    g.feed(diffuse.inputs["Color"], g.vmath("MULTIPLY", albedo, g.vmath("DIVIDE", extinction, origin)))
+    g.feed(diffuse.inputs["Normal"], normal)
+    occlusion = g.clamp(g.mul_add(g.separate(normal)[2], 0.5, 0.5), 0.0, 1.0)
+    sky_light = g.vscale(ambient_irradiance(g, table, cos_sun),
+                         g.div(g.mul(g.mul(gin.outputs["Sun Strength"], occlusion), gin.outputs["Ambient Strength"]),
+                               math.pi))
+    emission = g.node("ShaderNodeEmission")
+    g.feed(emission.inputs["Color"], g.vmath("MULTIPLY", albedo, sky_light))
+    g.feed(emission.inputs["Strength"], 1.0)
+    add = g.node("ShaderNodeAddShader")
+    g.links.new(diffuse.outputs[0], add.inputs[0])
+    g.links.new(emission.outputs[0], add.inputs[1])
+    g.links.new(add.outputs[0], gout.inputs["Shader"])
+    return tree

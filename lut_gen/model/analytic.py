@@ -276,3 +276,62 @@ def aerial_perspective(m: AnalyticMedia, camera, points, surface_radiance, sun, 
     transmittance, inscatter = segment(m, cos_sun_view, length, e_sun, air, haze)
     inscatter = inscatter * sun_strength * scattering_scale
     return np.asarray(surface_radiance)[..., :3] * transmittance + inscatter, transmittance, inscatter
+
+
+# -- the terrain's light ------------------------------------------------------------------------
+
+# The ambient skylight: the analytic sky's irradiance on a horizontal plane AMBIENT_HEIGHT_M up
+# (the precomputed tables' eq. (3) height), at AMBIENT_NODES suns evenly spaced in cos from the
+# horizon to the zenith, linear between. The groups hold the same nodes as constants: no image.
+AMBIENT_NODES = 17
+AMBIENT_HEIGHT_M = 20.0
+
+
+def _hemisphere(zeniths: int = 48, azimuths: int = 64):
+    """Directions and weights (solid angle x cos) of the upper hemisphere: Gauss-Legendre in
+    cos zenith, even in azimuth."""
+    x, w = np.polynomial.legendre.leggauss(zeniths)
+    mu, w_mu = (x + 1) / 2, w / 2
+    phi = (np.arange(azimuths) + 0.5) * 2 * math.pi / azimuths
+    sin = np.sqrt(1 - mu ** 2)
+    directions = np.stack(np.broadcast_arrays(sin[:, None] * np.cos(phi), sin[:, None] * np.sin(phi),
+                                              mu[:, None]), axis=-1)
+    weights = (w_mu * mu)[:, None] * np.full(azimuths, 2 * math.pi / azimuths)
+    return directions.reshape(-1, 3), weights.reshape(-1)
+
+
+def ambient_table(m: AnalyticMedia):
+    """(cos sun nodes, irradiance per unit E0 (nodes, RGB) without the sun's visibility factor):
+    E = int L_air(w) cos dw over the sky, from sky_parts' air light."""
+    cos_nodes = np.linspace(0.0, 1.0, AMBIENT_NODES)
+    directions, weights = _hemisphere()
+    values = []
+    for c in cos_nodes:
+        sun = np.array([math.sqrt(1 - c * c), 0.0, c])
+        air, _ = sky_parts(m, AMBIENT_HEIGHT_M, directions, sun)
+        values.append((air * weights[:, None]).sum(axis=0) / sun_visibility(c))
+    return cos_nodes, np.array(values)
+
+
+def ambient_irradiance(m: AnalyticMedia, cos_sun, table=None):
+    """The ambient skylight per unit E0 for suns at ``cos_sun``: the table, linear, times the
+    visible part of the disc."""
+    nodes, values = table if table is not None else ambient_table(m)
+    c = np.asarray(cos_sun, dtype=np.float64)
+    clamped = np.clip(c, 0.0, 1.0)
+    rgb = np.stack([np.interp(clamped, nodes, values[:, i]) for i in range(3)], axis=-1)
+    return rgb * sun_visibility(c)[..., None]
+
+
+def terrain_radiance(m: AnalyticMedia, position, normal, sun, sun_strength: float, albedo, table=None):
+    """(..., 3) radiance leaving a Lambertian point (lut_gen.passes.terrain's formula with the
+    analytic model's sun extinction at the point's height and its ambient skylight): albedo / pi
+    E0 (F_ex(point) max(N . L, 0) + E_sky(cos sun) occlusion(N)). +Z is up; shadows are the
+    renderer's."""
+    position = np.asarray(position, dtype=np.float64)
+    normal = np.asarray(normal, dtype=np.float64)
+    sun = np.asarray(sun, dtype=np.float64)
+    direct = sun_transmittance(m, sun[2], position[..., 2]) * np.maximum(normal @ sun, 0.0)[..., None]
+    occlusion = np.clip((1.0 + normal[..., 2]) / 2.0, 0.0, 1.0)[..., None]
+    ambient = ambient_irradiance(m, sun[2], table) * occlusion
+    return np.asarray(albedo, dtype=np.float64) / math.pi * sun_strength * (direct + ambient)

@@ -103,3 +103,73 @@ def test_analytic_aerial_perspective_matches_its_twin(addon_package, tmp_path):
     assert (seen[far] - raw[far]).mean() > 0.02 * raw[far].mean()          # distant terrain gains air light
     far_t = transmittance[far[geometry]]
     assert (far_t[:, 0] > far_t[:, 2]).all() and far_t[:, 2].mean() < 0.95   # and blue fades first
+
+
+def _add_plane(name, size, location, rotation=(0.0, 0.0, 0.0)):
+    bpy.ops.mesh.primitive_plane_add(size=size, location=location, rotation=rotation)
+    obj = bpy.context.active_object
+    obj.name = name
+    material = bpy.data.materials.new(name + " base")
+    material.use_nodes = True
+    material.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.5, 0.4, 0.3, 1.0)
+    obj.data.materials.append(material)
+    return obj
+
+
+def _no_tables(monkeypatch, tmp_path):
+    """An empty, read-only cache directory, and every way to the tables refused."""
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    cache.chmod(0o555)
+    monkeypatch.setenv("OLS_CACHE_DIR", str(cache))
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the analytic model touched the tables")
+    monkeypatch.setattr(extension_module("addon.scene.tables.luts"), "load_images", refuse)
+    monkeypatch.setattr(extension_module("addon.baking"), "bake_if_needed", refuse)
+    monkeypatch.setattr(extension_module("lut_gen.store.exr_io"), "read_header_params", refuse)
+    return cache
+
+
+def test_analytic_terrain_matches_its_twin_with_no_tables(addon_package, tmp_path, monkeypatch):
+    """Wired by wire_scene under the analytic model, with an empty read-only cache: the terrain
+    against analytic.terrain_radiance, and no table file read or written."""
+    cache = _no_tables(monkeypatch, tmp_path)
+    scene = empty_scene(width=96, height=48, samples=32)
+    flat = _add_plane("flat", 200.0, (-150.0, 0.0, 0.0))
+    tilted = _add_plane("tilted", 200.0, (150.0, 0.0, 80.0), rotation=(math.radians(-40.0), 0.0, 0.0))
+    cam_data = bpy.data.cameras.new("top")
+    cam_data.type = "ORTHO"
+    cam_data.ortho_scale = 600.0
+    camera = bpy.data.objects.new("top", cam_data)
+    camera.location = (0.0, 0.0, 1000.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    sun_mod = extension_module("addon.scene.sun")
+    sun = sun_mod.create_sun(scene, elevation_deg=30.0, azimuth_deg=0.0)
+    scene.ols.atmosphere_model = "ANALYTIC"
+    extension_module("addon.scene.setup.wiring").wire_scene(scene, None, [flat, tilted], sun)
+    rendered = render_rgb(scene, tmp_path / "terrain.exr")
+    save_png(tmp_path / "terrain.png", rendered, exposure=2.0)
+    assert list(cache.iterdir()) == []
+    assert not [image.name for image in bpy.data.images if image.filepath.endswith(".exr")]
+
+    analytic = addon_package.lut_gen.model.analytic
+    media = analytic.media(addon_package.lut_gen.AtmosphereParams())
+    to_sun = sun_mod.direction_to_sun(sun)
+    np.testing.assert_allclose(sun.data.color, analytic.sun_transmittance(media, to_sun[2]), rtol=1e-3)
+
+    def region(x_centre, half=40.0):
+        cols = slice(int((x_centre - half + 300) / 600 * 96), int((x_centre + half + 300) / 600 * 96))
+        rows = slice(int((150 - half) / 300 * 48), int((150 + half) / 300 * 48))
+        return rendered[rows, cols].reshape(-1, 3)
+
+    albedo = np.array([0.5, 0.4, 0.3])
+    tilted_normal = np.array(tilted.matrix_world.to_3x3().col[2])
+    for pixels, position, normal in ((region(-150.0), [-150.0, 0, 0], [0.0, 0, 1]),
+                                     (region(150.0), [150.0, 0, 80.0], tilted_normal)):
+        want = analytic.terrain_radiance(media, np.array(position), np.array(normal), to_sun, sun.data.energy, albedo)
+        err = np.abs(pixels - want) / want
+        print(f"analytic terrain at {position}: median {np.median(err):.2e}")
+        assert np.median(err) <= 0.02, (np.median(pixels, axis=0), want)
+    assert region(150.0).mean() > region(-150.0).mean() > 0.05       # lit, and the tilted plane faces the sun

@@ -397,7 +397,9 @@ def sync_settings(scene):
                          "Lighting Only": float(settings.lighting_only), "Scattering Scale": settings.scattering_scale})
     shafts = tree.nodes.get(names.SHAFTS_NODE)
     if shafts is not None and shafts.node_tree is not None:
-        active = settings.enable_light_scattering and settings.enable_light_shafts
+        # The analytic model has no light shafts yet: a shaft group left from the tables stays muted.
+        active = (settings.enable_light_scattering and settings.enable_light_shafts
+                  and scene.get(names.WIRED_KEY) != names.ANALYTIC_WIRED)
         if shafts.mute == active:       # a muted group passes its image through and costs nothing
             shafts.mute = not active
         _set_inputs(shafts, {"Enable": float(settings.enable_light_scattering),
