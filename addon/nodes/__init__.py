@@ -10,9 +10,10 @@ from dataclasses import dataclass
 from typing import Callable
 
 from ..scene import names
-from . import builder, epipolar, frame_values, lookup  # noqa: F401 (their helpers are used as nodes.<module>.<name>)
+from . import analytic, builder, epipolar, frame_values, lookup  # noqa: F401 (their helpers are used as nodes.<module>.<name>)
 from .aerial import build_aerial_group
-from .analytic import build_analytic_aerial_group, build_analytic_sky_group, build_analytic_terrain_group
+from .analytic import (build_analytic_aerial_group, build_analytic_sky_group, build_analytic_terrain_group,
+                       build_media_group)
 from .cloud_shadow import build_cloud_shadow_group
 from .cloud_veil import build_cloud_veil_group, build_cloud_veil_step_group
 from .clouds import build_cloud_group
@@ -76,6 +77,10 @@ GROUPS = (
     Group(names.TERRAIN_GROUP, build_analytic_terrain_group, "lut_gen.model.analytic.terrain_radiance",
           _ANALYTIC_TESTS + "test_analytic_terrain_matches_its_twin_with_no_tables"),
     Group(names.AERIAL_GROUP, build_analytic_aerial_group, "lut_gen.model.analytic.aerial_perspective",
+          _ANALYTIC_TESTS + "test_analytic_aerial_perspective_matches_its_twin"),
+    Group(names.ANALYTIC_MEDIA_GROUP, build_media_group, "lut_gen.model.analytic.media",
+          _ANALYTIC_TESTS + "test_analytic_sky_matches_its_twin"),
+    Group(names.ANALYTIC_MEDIA_COMPOSITOR_GROUP, build_media_group, "lut_gen.model.analytic.media",
           _ANALYTIC_TESTS + "test_analytic_aerial_perspective_matches_its_twin"),
     Group(names.TONE_MAPPING_GROUP, build_tone_mapping_group, "lut_gen.passes.tone_mapping.tone_map",
           "tests/twins/test_tone_mapping.py::test_every_operator_matches_the_sample_formula"),

@@ -1,16 +1,24 @@
-"""The analytic model's node groups (Hoffman & Preetham, lut_gen.model.analytic): no tables, no
-images, every coefficient a constant of the group, so a changed slider rebuilds them in a few
-milliseconds instead of re-baking.
+"""The analytic model's node groups (Hoffman & Preetham, lut_gen.model.analytic): no tables and
+no images.
 
-They are built under the precomputed groups' names ("OLS Sky", "OLS Aerial Perspective", "OLS
-Terrain") with the same interfaces, so the world, the compositor, the materials, their drivers
-and the frame values are wired the same way under either model; only what the groups compute
-differs. Inputs only the precomputed groups use (the clouds, "Light Shafts") are accepted and
-ignored. Twins: lut_gen.model.analytic.sky_parts, aerial_perspective and terrain_radiance.
+The numbers of the media (coefficients, g, optical lengths, albedo, the ambient skylight's nodes)
+live in two small groups of constants, "OLS Analytic Media" (shader) and its compositor twin;
+the sky, terrain and aerial groups read them through a group node. A slider change rebuilds
+only those (some 40 nodes), not the ~1500 nodes of formula: the groups' structure never depends
+on the media.
+
+The formula groups are built under the precomputed groups' names ("OLS Sky", "OLS Aerial
+Perspective", "OLS Terrain") with the same interfaces, so the world, the compositor, the
+materials, their drivers and the frame values are wired the same way under either model; only
+what the groups compute differs. Inputs only the precomputed groups use (the clouds, "Light
+Shafts") are accepted and ignored. Twins: lut_gen.model.analytic.media, sky_parts,
+aerial_perspective and terrain_radiance.
 """
 from __future__ import annotations
 
 import math
+
+import bpy
 
 from ...lut_gen.model import analytic
 from .aerial import INPUTS as AERIAL_INPUTS
@@ -24,6 +32,50 @@ from ..scene import names
 SERIES_BELOW = 1e-2
 # exp's argument floor, as optical.transmittance_from_net_density keeps it.
 MAX_DEPTH = 80.0
+
+MEDIA_VECTORS = ("Rayleigh", "Haze Scattering", "Haze Extinction")
+MEDIA_FLOATS = ("G", "Air Length", "Haze Length", "Ground Albedo")
+
+
+def _ambient_socket(k: int) -> str:
+    return f"Ambient {k}"
+
+
+def media_outputs(compositor: bool):
+    vectors = list(MEDIA_VECTORS) + ([] if compositor else [_ambient_socket(k) for k in range(analytic.AMBIENT_NODES)])
+    return [(name, "NodeSocketVector", None) for name in vectors] + [(name, "NodeSocketFloat", None) for name in MEDIA_FLOATS]
+
+
+def build_media_group(params, compositor: bool = False):
+    """The media of ``params`` as constants (analytic.media; the shader group also the ambient
+    skylight's nodes, analytic.ambient_table). Rebuilt on every slider change: cheap."""
+    m = analytic.media(params)
+    tree = new_group(names.ANALYTIC_MEDIA_COMPOSITOR_GROUP if compositor else names.ANALYTIC_MEDIA_GROUP,
+                     "CompositorNodeTree" if compositor else "ShaderNodeTree")
+    g, _, gout = group_io(tree, [], media_outputs(compositor))
+    values = {"Rayleigh": m.rayleigh, "Haze Scattering": m.haze_scattering, "Haze Extinction": m.haze_extinction}
+    if not compositor:
+        for k, value in enumerate(analytic.ambient_table(m)[1]):
+            values[_ambient_socket(k)] = value
+    for name, value in values.items():
+        g.links.new(g.combine(*(float(v) for v in value)), gout.inputs[name])
+    for name, value in (("G", m.g), ("Air Length", m.air_length), ("Haze Length", m.haze_length),
+                        ("Ground Albedo", m.ground_albedo)):
+        g.links.new(g.math("ADD", float(value), 0.0), gout.inputs[name])
+    return tree
+
+
+class Media:
+    """The media group's outputs inside a formula group: per-channel sockets of the coefficients."""
+
+    def __init__(self, g, compositor: bool = False):
+        node = g.node("CompositorNodeGroup" if compositor else "ShaderNodeGroup")
+        node.node_tree = bpy.data.node_groups[names.ANALYTIC_MEDIA_COMPOSITOR_GROUP if compositor
+                                              else names.ANALYTIC_MEDIA_GROUP]
+        out = node.outputs
+        self.rayleigh, self.haze_scattering, self.haze_extinction = (g.separate(out[name]) for name in MEDIA_VECTORS)
+        self.g, self.air_length, self.haze_length, self.ground_albedo = (out[name] for name in MEDIA_FLOATS)
+        self.ambient = [out[_ambient_socket(k)] for k in range(analytic.AMBIENT_NODES)] if not compositor else []
 
 
 def _exp_neg(g, x):
@@ -45,7 +97,19 @@ def sun_visibility(g, cos_sun):
 
 def densities(g, m, height):
     """Air and haze densities relative to the ground at ``height`` (>= 0)."""
-    return (g.math("EXPONENT", g.div(height, -m.air_length)), g.math("EXPONENT", g.div(height, -m.haze_length)))
+    below = g.mul(height, -1.0)
+    return g.math("EXPONENT", g.div(below, m.air_length)), g.math("EXPONENT", g.div(below, m.haze_length))
+
+
+def _scaled(g, coefficient, density):
+    """coefficient x density, with no node for the plain densities 0 and 1."""
+    if isinstance(density, float):
+        return 0.0 if density == 0.0 else coefficient if density == 1.0 else g.mul(coefficient, density)
+    return g.mul(coefficient, density)
+
+
+def _sum(g, a, b):
+    return a if b == 0.0 else b if a == 0.0 else g.add(a, b)
 
 
 def sun_transmittance(g, m, cos_sun, height):
@@ -54,8 +118,8 @@ def sun_transmittance(g, m, cos_sun, height):
     air, haze = densities(g, m, height)
     s_air, s_haze = g.mul(g.mul(mass, m.air_length), air), g.mul(g.mul(mass, m.haze_length), haze)
     visible = sun_visibility(g, cos_sun)
-    return [g.mul(_exp_neg(g, g.add(g.mul(s_air, float(m.rayleigh[i])), g.mul(s_haze, float(m.haze_extinction[i])))),
-                  visible) for i in range(3)]
+    return [g.mul(_exp_neg(g, g.add(g.mul(s_air, m.rayleigh[i]), g.mul(s_haze, m.haze_extinction[i]))), visible)
+            for i in range(3)]
 
 
 def phases(g, m, cos_sun_view):
@@ -63,8 +127,8 @@ def phases(g, m, cos_sun_view):
     c = g.clamp(cos_sun_view, -1.0, 1.0)
     rayleigh = g.mul(g.mul_add(c, c, 1.0), 3.0 / (16.0 * math.pi))
     gg = m.g
-    base = g.math("MAXIMUM", g.mul_add(c, -2.0 * gg, 1.0 + gg * gg), 1e-6)
-    haze = g.div((1.0 - gg * gg) / (4.0 * math.pi), g.math("POWER", base, 1.5))
+    base = g.math("MAXIMUM", g.mul_add(g.mul(gg, -2.0), c, g.mul_add(gg, gg, 1.0)), 1e-6)
+    haze = g.div(g.mul(g.sub(1.0, g.mul(gg, gg)), 1.0 / (4.0 * math.pi)), g.math("POWER", base, 1.5))
     return rayleigh, haze
 
 
@@ -73,9 +137,7 @@ def segment(g, m, phase, length, e_sun, air=1.0, haze=1.0):
     rayleigh_phase, haze_phase = phase
     transmittance, inscatter = [], []
     for i in range(3):
-        air_beta = m.rayleigh[i] * air if isinstance(air, float) else g.mul(air, float(m.rayleigh[i]))
-        haze_beta = m.haze_extinction[i] * haze if isinstance(haze, float) else g.mul(haze, float(m.haze_extinction[i]))
-        beta = air_beta + haze_beta if isinstance(air_beta, float) and isinstance(haze_beta, float) else g.add(air_beta, haze_beta)
+        beta = _sum(g, _scaled(g, m.rayleigh[i], air), _scaled(g, m.haze_extinction[i], haze))
         depth = g.mul(length, beta)
         t = _exp_neg(g, depth)
         # (1 - exp(-x)) / x, its series below SERIES_BELOW; times the length gives the reach
@@ -83,9 +145,8 @@ def segment(g, m, phase, length, e_sun, air=1.0, haze=1.0):
         series = g.mul_add(depth, g.mul_add(depth, 1.0 / 6.0, -0.5), 1.0)
         small = g.math("LESS_THAN", depth, SERIES_BELOW)
         reach = g.mul(g.select(exact, series, small), length)
-        air_sc = m.rayleigh[i] * air if isinstance(air, float) else g.mul(air, float(m.rayleigh[i]))
-        haze_sc = m.haze_scattering[i] * haze if isinstance(haze, float) else g.mul(haze, float(m.haze_scattering[i]))
-        angular = g.add(g.mul(rayleigh_phase, air_sc), g.mul(haze_phase, haze_sc))
+        air_sc, haze_sc = _scaled(g, m.rayleigh[i], air), _scaled(g, m.haze_scattering[i], haze)
+        angular = _sum(g, g.mul(rayleigh_phase, air_sc), 0.0 if haze_sc == 0.0 else g.mul(haze_phase, haze_sc))
         transmittance.append(t)
         inscatter.append(g.mul(g.mul(angular, reach), e_sun[i]))
     return transmittance, inscatter
@@ -109,7 +170,7 @@ def sky_parts(g, m, view, sun, height):
     distance = g.div(g.math("MAXIMUM", height, 1e-3), g.math("MAXIMUM", g.mul(cos_view, -1.0), 1e-9))
     hits = g.mul(down, g.math("LESS_THAN", distance, s_air))
     ground_t, ground_air = segment(g, m, phase, g.mul(distance, hits), e_sun, air, haze)
-    lit = g.mul(g.math("MAXIMUM", cos_sun, 0.0), m.ground_albedo / math.pi)
+    lit = g.mul(g.math("MAXIMUM", cos_sun, 0.0), g.mul(m.ground_albedo, 1.0 / math.pi))
     air_light = [g.select(sky[i], ground_air[i], hits) for i in range(3)]
     ground_light = [g.mul(g.mul(g.mul(lit, e_sun[i]), ground_t[i]), hits) for i in range(3)]
     return air_light, ground_light, e_sun
@@ -119,9 +180,10 @@ def build_analytic_sky_group(params):
     """"OLS Sky" under the analytic model. Every ray evaluates the formula (a few hundred math
     nodes, no texture), camera rays with the limb-darkened sun disc; diffuse and scatter rays
     only with "Light Scene", glossy rays always, as in the precomputed group."""
-    m = analytic.media(params)
+    build_media_group(params)
     tree = new_group(names.SKY_GROUP)
     g, gin, gout = group_io(tree, SKY_INPUTS, [("Color", "NodeSocketColor", None), ("Background", "NodeSocketShader", None)])
+    m = Media(g)
     view = g.vmath("NORMALIZE", g.node("ShaderNodeTexCoord").outputs["Generated"])
     sun = g.vmath("NORMALIZE", gin.outputs["Sun Direction"])
     height = g.math("MAXIMUM", gin.outputs["Camera Height"], 0.0)
@@ -146,11 +208,12 @@ def build_analytic_aerial_group(params):
     """"OLS Aerial Perspective" under the analytic model: Eq. 1 from the camera to each pixel's
     point through air and haze at the densities of the segment's middle height, E_sun at the
     camera's height. Sky pixels pass through, as in the precomputed group."""
-    m = analytic.media(params)
+    build_media_group(params, compositor=True)
     tree = new_group(names.AERIAL_GROUP, "CompositorNodeTree")
     g, gin, gout = group_io(tree, AERIAL_INPUTS, [("Image", "NodeSocketColor", None),
                                                   ("Transmittance", "NodeSocketColor", None),
                                                   ("Inscattering", "NodeSocketColor", None)])
+    m = Media(g, compositor=True)
     camera, point = gin.outputs["Camera Position"], gin.outputs["Position"]
     sun = g.vmath("NORMALIZE", gin.outputs["Sun Direction"])
     offset = g.vmath("SUBTRACT", point, camera)
@@ -173,15 +236,14 @@ def build_analytic_aerial_group(params):
     return tree
 
 
-def ambient_irradiance(g, table, cos_sun):
-    """analytic.ambient_irradiance: the table's nodes as constants, linear between them (a sum
+def ambient_irradiance(g, m, cos_sun):
+    """analytic.ambient_irradiance: the media group's ambient nodes, linear between them (a sum
     of hat functions), times the sun's visibility."""
-    nodes, values = table
-    x = g.mul(g.clamp(cos_sun, 0.0, 1.0), float(len(nodes) - 1))
+    x = g.mul(g.clamp(cos_sun, 0.0, 1.0), float(len(m.ambient) - 1))
     total = (0.0, 0.0, 0.0)
-    for k, value in enumerate(values):
+    for k, value in enumerate(m.ambient):
         hat = g.math("MAXIMUM", g.sub(1.0, g.math("ABSOLUTE", g.sub(x, float(k)))), 0.0)
-        total = g.vmath("MULTIPLY_ADD", tuple(float(v) for v in value), g.combine(hat, hat, hat), total)
+        total = g.vmath("MULTIPLY_ADD", value, g.combine(hat, hat, hat), total)
     return g.vscale(total, sun_visibility(g, cos_sun))
 
 
@@ -189,10 +251,10 @@ def build_analytic_terrain_group(params):
     """"OLS Terrain" under the analytic model: the precomputed group's shading (nodes/terrain.py)
     with Eq. 5's sun extinction at the point's height (over the origin's, which the lamp's colour
     carries) and the analytic sky's own ambient skylight. +Z is up and z the height."""
-    m = analytic.media(params)
-    table = analytic.ambient_table(m)
+    build_media_group(params)
     tree = new_group(names.TERRAIN_GROUP)
     g, gin, gout = group_io(tree, TERRAIN_INPUTS, [("Shader", "NodeSocketShader", None)])
+    m = Media(g)
     geometry = g.node("ShaderNodeNewGeometry")
     given = gin.outputs["Normal"]
     has_normal = g.math("GREATER_THAN", g.vmath("LENGTH", given), 0.5)
@@ -207,7 +269,7 @@ def build_analytic_terrain_group(params):
     g.feed(diffuse.inputs["Color"], g.vmath("MULTIPLY", albedo, g.vmath("DIVIDE", extinction, origin)))
     g.feed(diffuse.inputs["Normal"], normal)
     occlusion = g.clamp(g.mul_add(g.separate(normal)[2], 0.5, 0.5), 0.0, 1.0)
-    sky_light = g.vscale(ambient_irradiance(g, table, cos_sun),
+    sky_light = g.vscale(ambient_irradiance(g, m, cos_sun),
                          g.div(g.mul(g.mul(gin.outputs["Sun Strength"], occlusion), gin.outputs["Ambient Strength"]),
                                math.pi))
     emission = g.node("ShaderNodeEmission")
@@ -218,3 +280,21 @@ def build_analytic_terrain_group(params):
     g.links.new(emission.outputs[0], add.inputs[1])
     g.links.new(add.outputs[0], gout.inputs["Shader"])
     return tree
+
+
+def update_media(params) -> bool:
+    """After a slider change: rebuild only the media groups when the formula groups are the
+    analytic ones already (True), else nothing (False: build the groups)."""
+    if not all(_reads_media(name, media) for name, media in (
+            (names.SKY_GROUP, names.ANALYTIC_MEDIA_GROUP), (names.TERRAIN_GROUP, names.ANALYTIC_MEDIA_GROUP),
+            (names.AERIAL_GROUP, names.ANALYTIC_MEDIA_COMPOSITOR_GROUP))):
+        return False
+    build_media_group(params)
+    build_media_group(params, compositor=True)
+    return True
+
+
+def _reads_media(group_name, media_name) -> bool:
+    tree = bpy.data.node_groups.get(group_name)
+    return tree is not None and any(node.type == "GROUP" and node.node_tree is not None
+                                    and node.node_tree.name == media_name for node in tree.nodes)

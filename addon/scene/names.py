@@ -95,3 +95,5 @@ EPIPOLAR_AIR_IMAGES = {"single": "OLS Epipolar Air Rayleigh", "single_mie": "OLS
 
 # -- the analytic model (Hoffman & Preetham) --------------------------------------------------
 ANALYTIC_WIRED = "analytic"                       # WIRED_KEY of a scene wired to the analytic model: no tables
+ANALYTIC_MEDIA_GROUP = "OLS Analytic Media"                    # its coefficients, for the shader groups
+ANALYTIC_MEDIA_COMPOSITOR_GROUP = "OLS Analytic Media (Compositor)"

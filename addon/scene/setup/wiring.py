@@ -69,9 +69,11 @@ def wants_analytic(scene) -> bool:
 
 def build_analytic_groups(scene):
     """The analytic model's sky, terrain and aerial perspective under the precomputed groups'
-    names (nodes/analytic.py), and the cloud groups, which read only the cloud map. No table is
-    read or written. Returns the params the groups were built for."""
+    names (nodes/analytic.py), and the cloud groups, which read only the cloud map; when they
+    are built already, only their media. No table is read or written. Returns the params."""
     params = analytic_params(scene.ols)
+    if nodes.analytic.update_media(params):         # a slider change: the numbers only
+        return params
     nodes.build_analytic_sky_group(params)
     nodes.build_analytic_terrain_group(params)
     nodes.build_analytic_aerial_group(params)
