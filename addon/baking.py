@@ -22,6 +22,7 @@ import bpy
 from .. import lut_gen
 from .scene import names
 from .scene.setup import wiring
+from .scene.tables import wired_bake
 from .settings import atmosphere_params
 
 
@@ -53,7 +54,12 @@ def swap_in(scene, directory, preview: bool = False):
 def settle(scene) -> bool:
     """Before a render: a scene showing the draft preview gets the tables it asked for now
     (waiting for the running bake, or baking them), so that no frame renders with the draft.
-    True when it swapped tables in."""
+    True when it swapped tables in. Also a scene still on the analytic groups that asks for
+    the tables again (a script switched the model back before they were baked)."""
+    if wired_bake.is_analytic(scene) and not wiring.wants_analytic(scene):
+        params = atmosphere_params(scene.ols).validate()
+        swap_in(scene, bake_if_needed(params, scene.get(names.RESOLUTION_KEY, "default")))
+        return True
     if not showing_preview(scene):
         return False
     running = latest()

@@ -59,19 +59,26 @@ def _sync_clouds(settings, context):
 
 def _switch_model(settings, context):
     """A wired scene follows the Atmosphere Model at once: the analytic groups, or the tables
-    (from the cache when they are baked: switching back and forth never re-bakes; a script
-    waits for a missing bake, the UI bakes in the background)."""
+    from the cache (switching back and forth never re-bakes). Tables not baked yet bake in the
+    background in the UI; a script bakes them with bpy.ops.ols.bake_luts, and a render settles
+    first (baking.settle), so no frame renders the model it was not asked for."""
     scene = context.scene
     if scene is None or not scene.get(names.WIRED_KEY):
         return
     if settings.atmosphere_model == "ANALYTIC":
         wiring.use_model(scene)
         return
-    params = atmosphere_params(settings).validate()
+    if not wired_bake.is_analytic(scene):
+        return                          # on the tables already
     resolution = scene.get(names.RESOLUTION_KEY, "default")
-    if baking.is_baked(params, resolution) or bpy.app.background:
-        wiring.use_model(scene, baking.bake_if_needed(params, resolution))
-    else:
+    try:
+        params = atmosphere_params(settings).validate()
+    except ValueError as exc:
+        print(f"Outdoor Light Scattering: no tables for these settings: {exc}")
+        return
+    if baking.is_baked(params, resolution):
+        wiring.use_model(scene, baking.bake_directory(params, resolution))
+    elif not bpy.app.background:
         baking.invoke_bake_in_window(resolution)
 
 
