@@ -162,7 +162,8 @@ class OLS_OT_setup_scene(bpy.types.Operator):
         except (wiring.SetupError, lut_gen.LutError, OSError, ValueError, RuntimeError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        self.report({"INFO"}, "Scene wired to the atmosphere tables")
+        self.report({"INFO"}, "Scene wired to the analytic atmosphere model" if directory is None
+                    else "Scene wired to the atmosphere tables")
         return {"FINISHED"}
 
     def invoke(self, context, event):

@@ -2,7 +2,7 @@
 precomputed tables of the same media (default resolution, multiple scattering), which the
 project tests against brute-force integration and Monte Carlo (docs/accuracy.md).
 
-    python scripts/analytic_error_table.py [--resolution default|draft]
+    python scripts/analytic_error_table.py [--resolution default|draft] [--picture docs/analytic_comparison.png]
 
 Each row gives analytic / reference per channel (R G B) and for the luminance; the camera is
 2 m up, the media the clear sky's."""
@@ -83,14 +83,54 @@ def aerial_rows(luts, media):
                 yield f"aerial transmittance, {distance / 1000:g} km", t_model, t_reference, None
 
 
+PICTURE_SUNS = (60, 20, 5, -2)
+
+
+def panel(radiance_of, width=360, height=100):
+    """An equirectangular strip: azimuth from the sun -180..180 deg left to right, elevation 90
+    down to -10 deg, 1 deg per pixel."""
+    az = np.radians((np.arange(width) + 0.5) / width * 360.0 - 180.0)
+    el = np.radians(90.0 - (np.arange(height) + 0.5) / height * 100.0)
+    el, az = np.meshgrid(el, az, indexing="ij")
+    view = np.stack([np.sin(az) * np.cos(el), np.cos(az) * np.cos(el), np.sin(el)], axis=-1)
+    return radiance_of(view)
+
+
+def picture(luts, media, path):
+    """Rows: the suns of PICTURE_SUNS; left the tables, right the analytic model, both exposed
+    for the tables' median luminance above the horizon (so the analytic model's darkness shows),
+    Reinhard per channel, sRGB."""
+    from lut_gen.store import png
+    rows = []
+    for sun_el in PICTURE_SUNS:
+        sun = direction(sun_el, 0)
+
+        def tables(view):
+            sky = luts.sky_radiance(HEIGHT, view[..., 2], sun[2], view @ sun)
+            return sky + luts.ground_radiance(HEIGHT, view[..., 2], sun[2], view @ sun)
+
+        def model(view):
+            return analytic.sky_radiance(media, HEIGHT, view, sun)
+
+        left, right = panel(tables), panel(model)
+        exposure = 0.18 / max(float(np.median(left[:90] @ LUMINANCE)), 1e-12)
+        gap = np.ones((left.shape[0], 4, 3))
+        row = np.concatenate([left * exposure, gap, right * exposure], axis=1)
+        rows += [row / (1.0 + row), np.ones((4, row.shape[1], 3))]
+    png.write_png(path, png.to_srgb8(np.concatenate(rows[:-1])), software="scripts/analytic_error_table.py")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--resolution", default="default", choices=("default", "draft"))
+    parser.add_argument("--picture", help="also write the side-by-side PNG here")
     args = parser.parse_args()
     params = lut_gen.AtmosphereParams()
     with tempfile.TemporaryDirectory() as cache:
         luts, _, _ = lut_gen.cached_bake(params, resolution=args.resolution, directory=Path(cache) / "bake")
     media = analytic.media(params)
+    if args.picture:
+        picture(luts, media, args.picture)
     print("| case | analytic / tables (R, G, B) | luminance | analytic / single scattering of the same media (luminance) |")
     print("|---|---|---|---|")
     for rows in (sky_rows(luts, media), aerial_rows(luts, media)):

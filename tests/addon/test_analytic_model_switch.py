@@ -69,6 +69,9 @@ def test_set_up_with_the_analytic_model_needs_no_tables(addon_package, tmp_path,
     assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
     print(f"set up under the analytic model: {time.perf_counter() - started:.3f} s")
     _small(scene)
+    aerial = scene.compositing_node_group.nodes["OLS Aerial Perspective"]
+    for name in ("Camera Position", "Sun Direction", "Sun Strength"):     # camera and sun per frame
+        assert aerial.inputs[name].links[0].from_node.name == "OLS Frame Values", name
     clear = render_rgb(scene, tmp_path / "clear.exr", composite=True)
     assert np.isfinite(clear).all() and clear.mean() > 0.02
 
