@@ -98,6 +98,8 @@ def parse_args(argv):
                              "the frame, and without '#' '_####' is added before the extension")
     parser.add_argument("--frames", default=None, help="START-END: render an animation's frames")
     parser.add_argument("--tables", choices=["default", "draft"], default="default")
+    parser.add_argument("--atmosphere-model", choices=["precomputed", "analytic"], default=None,
+                        help="the scene's Atmosphere Model (default: the file's); analytic needs no tables")
     parser.add_argument("--compositor-device", choices=["CPU", "GPU"], default=None,
                         help="where Blender's compositor runs our passes (default: the scene's setting); "
                              "GPU needs an OpenGL context (EGL in background mode)")
@@ -167,6 +169,9 @@ def apply_options(scene, args):
             scene.eevee.taa_render_samples = args.samples
     if getattr(args, "compositor_device", None):
         scene.render.compositor_device = args.compositor_device
+    if getattr(args, "atmosphere_model", None):
+        scene.ols.atmosphere_model = args.atmosphere_model.upper()
+        baking.settle(scene)            # a file on the analytic model asked for the tables: bake them now
     sun = sun_lamps.find_sun(scene)
     if args.preset in AIR_PRESETS or args.preset in FOG_PRESETS:
         apply_air_preset(scene.ols, args.preset)

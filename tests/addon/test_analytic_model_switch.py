@@ -110,3 +110,23 @@ def test_nan_and_out_of_range_haze_clamp_under_the_analytic_model(addon_package,
     assert np.isfinite(far).all()
     np.testing.assert_allclose(far, top, rtol=0, atol=1e-5)                # clamped to the range
     assert not math.isclose(float(far.mean()), float(default.mean()), rel_tol=1e-3)
+
+
+def test_a_headless_render_with_the_analytic_model_needs_no_tables(addon_package, tmp_path, monkeypatch):
+    """scripts/render.py --atmosphere-model analytic with an empty, read-only cache: the sample
+    renders (not black) and nothing is baked or written there."""
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    cache.chmod(0o555)
+    monkeypatch.setenv("OLS_CACHE_DIR", str(cache))
+    _refuse_baking(monkeypatch)
+    batch = extension_module("addon.batch")
+    out = tmp_path / "analytic.exr"
+    assert batch.main(["--sample", "--atmosphere-model", "analytic", "--resolution", "48x27", "--samples", "1",
+                       "--output", str(out)]) == 0
+    assert out.exists() and list(cache.iterdir()) == []
+    scene = bpy.context.scene
+    assert scene["ols_bake_key"] == extension_module("addon.scene.names").ANALYTIC_WIRED
+    image = bpy.data.images.load(str(out))
+    pixels = np.array(image.pixels[:]).reshape(27, 48, 4)[..., :3]
+    assert np.isfinite(pixels).all() and pixels.mean() > 0.02
