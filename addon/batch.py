@@ -304,6 +304,9 @@ def main(argv=None) -> int:
         if args.pack:
             if not scene.get(names.WIRED_KEY):
                 wire(scene, args)           # with the file's own settings: the render options are not saved
+            if scene[names.WIRED_KEY] == names.ANALYTIC_WIRED:
+                raise BatchError("--pack: the scene uses the analytic atmosphere model, which has no tables "
+                                 "to pack (a worker renders it without any)")
             size = packed_tables.pack(scene[names.WIRED_KEY])
             try:
                 bpy.ops.wm.save_mainfile()

@@ -284,6 +284,11 @@ class OLS_OT_pack_tables(_OnWiredScene, bpy.types.Operator):
     bl_label = "Pack Tables"
     bl_options = {"REGISTER", "UNDO"}
 
+    @classmethod
+    def poll(cls, context):
+        # the analytic model has no tables: a farm renders it as it is
+        return super().poll(context) and not wired_bake.is_analytic(context.scene)
+
     def execute(self, context):
         try:
             size = packed_tables.pack(context.scene[names.WIRED_KEY])

@@ -130,3 +130,15 @@ def test_a_headless_render_with_the_analytic_model_needs_no_tables(addon_package
     image = bpy.data.images.load(str(out))
     pixels = np.array(image.pixels[:]).reshape(27, 48, 4)[..., :3]
     assert np.isfinite(pixels).all() and pixels.mean() > 0.02
+
+
+def test_there_are_no_tables_to_pack_under_the_analytic_model(addon_package, tmp_path, monkeypatch):
+    monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "cache"))
+    scene = sample_scene(addon_package)
+    scene.ols.atmosphere_model = "ANALYTIC"
+    assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+    assert not bpy.ops.ols.pack_tables.poll()
+    blend = tmp_path / "analytic.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    batch = extension_module("addon.batch")
+    assert batch.main(["--blend", str(blend), "--pack"]) == 1
