@@ -142,3 +142,30 @@ def test_there_are_no_tables_to_pack_under_the_analytic_model(addon_package, tmp
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
     batch = extension_module("addon.batch")
     assert batch.main(["--blend", str(blend), "--pack"]) == 1
+
+
+def test_a_scene_set_up_analytic_gets_the_light_shafts_when_switched_to_the_tables(addon_package, tmp_path,
+                                                                                   monkeypatch):
+    """Set up under the analytic model (no shaft groups), then switched to cached tables: the
+    shaft groups are built and linked, and the frame renders as a scene set up on the tables."""
+    monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "cache"))
+    baking = extension_module("addon.baking")
+    baking.bake_if_needed(addon_package.lut_gen.AtmosphereParams(), "draft")
+    scene = sample_scene(addon_package)
+    assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+    _small(scene)
+    tables = render_rgb(scene, tmp_path / "tables.exr", composite=True)
+
+    scene = sample_scene(addon_package)
+    for name in [n for n in bpy.data.node_groups.keys() if n.startswith("OLS ")]:
+        bpy.data.node_groups.remove(bpy.data.node_groups[name])
+    scene.ols.atmosphere_model = "ANALYTIC"
+    assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
+    assert "OLS Light Shafts" not in bpy.data.node_groups
+    _refuse_baking(monkeypatch)
+    scene.ols.atmosphere_model = "PRECOMPUTED"
+    shafts = scene.compositing_node_group.nodes.get("OLS Light Shafts")
+    assert shafts is not None and not shafts.mute and shafts.inputs["Image"].is_linked
+    _small(scene)
+    switched = render_rgb(scene, tmp_path / "switched.exr", composite=True)
+    np.testing.assert_allclose(switched, tables, rtol=0, atol=1e-4)
