@@ -22,7 +22,7 @@ import bpy
 from .. import lut_gen
 from .scene import names
 from .scene.setup import wiring
-from .scene.tables import luts
+from .scene.tables import wired_bake
 from .settings import atmosphere_params
 
 
@@ -43,18 +43,23 @@ def is_baked(params, resolution) -> bool:
 
 def swap_in(scene, directory, preview: bool = False):
     """Point an already wired scene at another bake (after a re-bake): rebuild the groups.
-    ``preview``: the bake stands in for the tables being baked (draft preview)."""
-    wiring.build_groups(directory, scene.render.engine)
-    scene[names.WIRED_KEY] = lut_gen.store.exr_io.verify_bake(directory)   # verified by build_groups: cached
+    ``preview``: the bake stands in for the tables being baked (draft preview). Not while the
+    scene asks for the analytic model: a bake started before the switch ends without a swap."""
+    if wiring.wants_analytic(scene):
+        return
     mark_preview(scene, preview)
-    wiring.refresh(scene, force=True)
-    luts.release_unused_images()
+    wiring.use_model(scene, directory)
 
 
 def settle(scene) -> bool:
     """Before a render: a scene showing the draft preview gets the tables it asked for now
     (waiting for the running bake, or baking them), so that no frame renders with the draft.
-    True when it swapped tables in."""
+    True when it swapped tables in. Also a scene still on the analytic groups that asks for
+    the tables again (a script switched the model back before they were baked)."""
+    if wired_bake.is_analytic(scene) and not wiring.wants_analytic(scene):
+        params = atmosphere_params(scene.ols).validate()
+        swap_in(scene, bake_if_needed(params, scene.get(names.RESOLUTION_KEY, "default")))
+        return True
     if not showing_preview(scene):
         return False
     running = latest()

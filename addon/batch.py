@@ -98,6 +98,8 @@ def parse_args(argv):
                              "the frame, and without '#' '_####' is added before the extension")
     parser.add_argument("--frames", default=None, help="START-END: render an animation's frames")
     parser.add_argument("--tables", choices=["default", "draft"], default="default")
+    parser.add_argument("--atmosphere-model", choices=["precomputed", "analytic"], default=None,
+                        help="the scene's Atmosphere Model (default: the file's); analytic needs no tables")
     parser.add_argument("--compositor-device", choices=["CPU", "GPU"], default=None,
                         help="where Blender's compositor runs our passes (default: the scene's setting); "
                              "GPU needs an OpenGL context (EGL in background mode)")
@@ -167,6 +169,9 @@ def apply_options(scene, args):
             scene.eevee.taa_render_samples = args.samples
     if getattr(args, "compositor_device", None):
         scene.render.compositor_device = args.compositor_device
+    if getattr(args, "atmosphere_model", None):
+        scene.ols.atmosphere_model = args.atmosphere_model.upper()
+        baking.settle(scene)            # a file on the analytic model asked for the tables: bake them now
     sun = sun_lamps.find_sun(scene)
     if args.preset in AIR_PRESETS or args.preset in FOG_PRESETS:
         apply_air_preset(scene.ols, args.preset)
@@ -269,11 +274,15 @@ def render(scene, args):
 
 
 def wire(scene, args):
+    terrain = [o for o in scene.objects if o.select_get() and o.type == "MESH"]
+    if wiring.wants_analytic(scene):
+        print("scene: wiring it to the analytic model (no tables)", flush=True)
+        wiring.wire_scene(scene, None, terrain, resolution=args.tables)
+        return
     print("scene: baking or finding the tables", flush=True)
     directory = baking.bake_if_needed(atmosphere_params(scene.ols).validate(), args.tables,
                                    progress=ProgressLines("bake"))
     print(f"scene: wiring it to the tables in {directory} (node groups, images, compositor)", flush=True)
-    terrain = [o for o in scene.objects if o.select_get() and o.type == "MESH"]
     wiring.wire_scene(scene, directory, terrain, resolution=args.tables)
     print("scene: wired; preparing the render", flush=True)
 
@@ -288,13 +297,16 @@ def main(argv=None) -> int:
                                  "libegl-mesa0 libgl1-mesa-dri); use --engine CYCLES")
             print(EGL_NOTE, flush=True)
         scene = prepare(args)
-        if scene.get(names.WIRED_KEY):
+        if scene.get(names.WIRED_KEY) and scene[names.WIRED_KEY] != names.ANALYTIC_WIRED:
             # A wired file: its tables were re-baked on load where they were missing or damaged
             # (handlers.on_file_loaded); never touch, let alone render, tables that still fail.
             luts.verify_wired(scene[names.WIRED_KEY])
         if args.pack:
             if not scene.get(names.WIRED_KEY):
                 wire(scene, args)           # with the file's own settings: the render options are not saved
+            if scene[names.WIRED_KEY] == names.ANALYTIC_WIRED:
+                raise BatchError("--pack: the scene uses the analytic atmosphere model, which has no tables "
+                                 "to pack (a worker renders it without any)")
             size = packed_tables.pack(scene[names.WIRED_KEY])
             try:
                 bpy.ops.wm.save_mainfile()

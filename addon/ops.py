@@ -155,13 +155,15 @@ class OLS_OT_setup_scene(bpy.types.Operator):
         scene = context.scene
         try:
             wiring.check_scene(scene)
-            params = atmosphere_params(scene.ols).validate()
-            directory = baking.bake_if_needed(params, self.resolution)
+            directory = None            # the analytic model: no tables
+            if not wiring.wants_analytic(scene):
+                directory = baking.bake_if_needed(atmosphere_params(scene.ols).validate(), self.resolution)
             wiring.wire_scene(scene, directory, terrain_candidates(context), resolution=self.resolution)
         except (wiring.SetupError, lut_gen.LutError, OSError, ValueError, RuntimeError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        self.report({"INFO"}, "Scene wired to the atmosphere tables")
+        self.report({"INFO"}, "Scene wired to the analytic atmosphere model" if directory is None
+                    else "Scene wired to the atmosphere tables")
         return {"FINISHED"}
 
     def invoke(self, context, event):
@@ -171,7 +173,7 @@ class OLS_OT_setup_scene(bpy.types.Operator):
         except (wiring.SetupError, ValueError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        if not baking.is_baked(params, self.resolution):
+        if not wiring.wants_analytic(context.scene) and not baking.is_baked(params, self.resolution):
             # Not baked yet (or damaged): bake in the background, then set up.
             return bpy.ops.ols.bake_luts("INVOKE_DEFAULT", resolution=self.resolution, setup_after=True)
         return self.execute(context)
@@ -281,6 +283,11 @@ class OLS_OT_pack_tables(_OnWiredScene, bpy.types.Operator):
     bl_idname = "ols.pack_tables"
     bl_label = "Pack Tables"
     bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        # the analytic model has no tables: a farm renders it as it is
+        return super().poll(context) and not wired_bake.is_analytic(context.scene)
 
     def execute(self, context):
         try:

@@ -16,16 +16,21 @@ from ..lut_gen.model.air_presets import AIR_PRESETS, FOG_PRESETS
 from ..lut_gen.model.atmosphere import DEFAULT_GROUND_ALBEDO
 from . import baking
 from .scene import clouds, names
-from .scene.setup import compositor
+from .scene.setup import compositor, wiring
+from .scene.tables import wired_bake
 from .settings import (DEFAULT_MIE_COLOR, DEFAULT_RAYLEIGH_COLOR, FOG_HEIGHT_MAX_M, FOG_HEIGHT_MIN_M,
-                       FOG_VISIBILITY_MAX_M, WITHOUT_EFFECT, apply_air_preset)
+                       FOG_VISIBILITY_MAX_M, WITHOUT_EFFECT, apply_air_preset, atmosphere_params)
 
 REBAKE_DELAY_S = 0.75     # wait for a slider drag to settle before re-baking
 
 
 def _rebake_soon(settings, context):
     """Changing the media re-bakes the tables in the background and swaps them into a wired
-    scene (interactive sessions only; scripts call bpy.ops.ols.bake_luts themselves)."""
+    scene (interactive sessions only; scripts call bpy.ops.ols.bake_luts themselves). Under the
+    analytic model the groups are rebuilt at once instead, in scripts too: nothing to bake."""
+    if context.scene is not None and wired_bake.is_analytic(context.scene):
+        wiring.use_model(context.scene)
+        return
     if bpy.app.background or context.scene is None or not context.scene.get(names.WIRED_KEY):
         return
     if bpy.app.timers.is_registered(_start_rebake):
@@ -50,6 +55,31 @@ def _sync_clouds(settings, context):
     if context.scene is not None:
         clouds.sync(context.scene)
         compositor.sync_settings(context.scene)
+
+
+def _switch_model(settings, context):
+    """A wired scene follows the Atmosphere Model at once: the analytic groups, or the tables
+    from the cache (switching back and forth never re-bakes). Tables not baked yet bake in the
+    background in the UI; a script bakes them with bpy.ops.ols.bake_luts, and a render settles
+    first (baking.settle), so no frame renders the model it was not asked for."""
+    scene = context.scene
+    if scene is None or not scene.get(names.WIRED_KEY):
+        return
+    if settings.atmosphere_model == "ANALYTIC":
+        wiring.use_model(scene)
+        return
+    if not wired_bake.is_analytic(scene):
+        return                          # on the tables already
+    resolution = scene.get(names.RESOLUTION_KEY, "default")
+    try:
+        params = atmosphere_params(settings).validate()
+    except ValueError as exc:
+        print(f"Outdoor Light Scattering: no tables for these settings: {exc}")
+        return
+    if baking.is_baked(params, resolution):
+        wiring.use_model(scene, baking.bake_directory(params, resolution))
+    elif not bpy.app.background:
+        baking.invoke_bake_in_window(resolution)
 
 
 def _apply_air_preset(settings, context):
@@ -385,6 +415,19 @@ class OLSSettings(bpy.types.PropertyGroup):
                  for key, (visibility, height) in FOG_PRESETS.items())),
         default="CUSTOM",
         update=_apply_air_preset,
+    )
+    atmosphere_model: EnumProperty(
+        name="Atmosphere Model",
+        description="What computes the sky, the terrain's light and the aerial perspective",
+        items=[
+            ("PRECOMPUTED", "Precomputed",
+             "The baked tables: multiple scattering, the Earth's curvature, twilight and light shafts"),
+            ("ANALYTIC", "Analytic (Hoffman-Preetham)",
+             "Hoffman & Preetham's constant-density model: single scattering in closed form, no bake, no "
+             "table file, updates at once; a preview, with no twilight and no light shafts"),
+        ],
+        default="PRECOMPUTED",
+        update=_switch_model,
     )
     atmosphere_preset: EnumProperty(
         name="Atmosphere",

@@ -54,6 +54,7 @@ PROPERTIES_BY_SET = {
         "air_preset",
         "aerosol_density",
         "aerosol_absorption",
+        "atmosphere_model",
         "atmosphere_preset",
         "ground_albedo",
         "ozone_column",
@@ -220,3 +221,10 @@ def atmosphere_params(settings) -> AtmosphereParams:
         ozone_column=_f32_value(settings.ozone_column),
         **fog_fields(settings),
     )
+
+
+def analytic_params(settings) -> AtmosphereParams:
+    """The media of the analytic model (lut_gen.model.analytic): ``atmosphere_params`` of the
+    sanitized controls, so a NaN or out-of-range aerosol control reads as its default or its
+    bound instead of failing validation (the model clamps the rest)."""
+    return atmosphere_params(Sanitized(settings))

@@ -10,8 +10,10 @@ from dataclasses import dataclass
 from typing import Callable
 
 from ..scene import names
-from . import builder, epipolar, frame_values, lookup  # noqa: F401 (their helpers are used as nodes.<module>.<name>)
+from . import analytic, builder, epipolar, frame_values, lookup  # noqa: F401 (their helpers are used as nodes.<module>.<name>)
 from .aerial import build_aerial_group
+from .analytic import (build_analytic_aerial_group, build_analytic_sky_group, build_analytic_terrain_group,
+                       build_media_group)
 from .cloud_shadow import build_cloud_shadow_group
 from .cloud_veil import build_cloud_veil_group, build_cloud_veil_step_group
 from .clouds import build_cloud_group
@@ -41,6 +43,7 @@ _AERIAL_TEST = "tests/twins/test_aerial_pass.py::test_aerial_perspective_pass_ma
 _SHAFTS_TEST = "tests/twins/test_light_shafts_pass.py::test_every_scattering_mode_matches_the_twin_and_shafts_show"
 _SKY_TEST = "tests/twins/test_sky_group.py::test_sky_render_matches_numpy_twin"
 _VEIL_TEST = "tests/twins/test_cloud_veil.py::test_peaks_in_the_cloud_are_veiled_as_the_twin_says"
+_ANALYTIC_TESTS = "tests/twins/test_analytic_groups.py::"
 _CLOUDS_TEST = "tests/twins/test_cloud_sky.py::test_cloudy_sky_render_matches_numpy_twin"
 
 GROUPS = (
@@ -68,6 +71,17 @@ GROUPS = (
     Group(names.MARCH_CHUNK_GROUP, build_march_chunk_group, "lut_gen.passes.aerial.light_shafts", _SHAFTS_TEST),
     Group(names.MARCH_REST_GROUP, build_march_chunk_group, "lut_gen.passes.aerial.light_shafts", _SHAFTS_TEST),
     Group(names.SHAFT_EDGE_GROUP, build_shaft_edge_group, "lut_gen.passes.shaft_boundary.refine", _SHAFTS_TEST),
+    # The analytic model's groups: the same names and interfaces, other builders and twins.
+    Group(names.SKY_GROUP, build_analytic_sky_group, "lut_gen.model.analytic.sky_parts",
+          _ANALYTIC_TESTS + "test_analytic_sky_matches_its_twin"),
+    Group(names.TERRAIN_GROUP, build_analytic_terrain_group, "lut_gen.model.analytic.terrain_radiance",
+          _ANALYTIC_TESTS + "test_analytic_terrain_matches_its_twin_with_no_tables"),
+    Group(names.AERIAL_GROUP, build_analytic_aerial_group, "lut_gen.model.analytic.aerial_perspective",
+          _ANALYTIC_TESTS + "test_analytic_aerial_perspective_matches_its_twin"),
+    Group(names.ANALYTIC_MEDIA_GROUP, build_media_group, "lut_gen.model.analytic.media",
+          _ANALYTIC_TESTS + "test_analytic_sky_matches_its_twin"),
+    Group(names.ANALYTIC_MEDIA_COMPOSITOR_GROUP, build_media_group, "lut_gen.model.analytic.media",
+          _ANALYTIC_TESTS + "test_analytic_aerial_perspective_matches_its_twin"),
     Group(names.TONE_MAPPING_GROUP, build_tone_mapping_group, "lut_gen.passes.tone_mapping.tone_map",
           "tests/twins/test_tone_mapping.py::test_every_operator_matches_the_sample_formula"),
 )

@@ -92,3 +92,8 @@ EPIPOLAR_INTEGRAL_IMAGE = "OLS Epipolar Integral"
 EPIPOLAR_SAMPLING_IMAGE = "OLS Epipolar Sampling"
 EPIPOLAR_AIR_IMAGES = {"single": "OLS Epipolar Air Rayleigh", "single_mie": "OLS Epipolar Air Mie",
                        "higher": "OLS Epipolar Air Higher", "single_fog": "OLS Epipolar Air Fog"}
+
+# -- the analytic model (Hoffman & Preetham) --------------------------------------------------
+ANALYTIC_WIRED = "analytic"                       # WIRED_KEY of a scene wired to the analytic model: no tables
+ANALYTIC_MEDIA_GROUP = "OLS Analytic Media"                    # its coefficients, for the shader groups
+ANALYTIC_MEDIA_COMPOSITOR_GROUP = "OLS Analytic Media (Compositor)"

@@ -16,12 +16,17 @@ import dataclasses
 import numpy as np
 
 from . import spectrum
+from .analytic import HAZE_LOOKS, SEED_HAZE_ZENITH_LENGTH_M
 from .atmosphere import AtmosphereParams
 
 REFERENCE_NM = 550.0
 AIR_PRESETS = {
     "hazy-summer-day": 0.3,
     "clean-mountain-air": 0.03,
+    # Hoffman & Preetham's haze looks (their Table 1): the green coefficient over their haze
+    # optical length, 0.0375 and 0.125. Their colour and phase are not carried over: the
+    # aerosol keeps the clear sky's (see lut_gen.model.analytic).
+    **{name: look.scattering[1] * SEED_HAZE_ZENITH_LENGTH_M for name, look in HAZE_LOOKS.items()},
 }
 # Fog presets: (visibility m, scale height m). Morning fog in a valley: a radiation fog a few
 # tens of metres deep, a few hundred metres' visibility at the ground (issue 26).

@@ -92,8 +92,8 @@ def test_every_control_is_a_property(addon_package):
     assert set(settings.WITHOUT_EFFECT) <= set(names)
     assert set(names) - set(settings.WITHOUT_EFFECT) == {
         "scattering_scale", "use_custom_scattering_coeffs", "rayleigh_color", "mie_color",
-        "air_preset", "aerosol_density", "aerosol_absorption", "atmosphere_preset", "ground_albedo", "ozone_column",
-        "fog_visibility", "fog_height", "animate_sun",
+        "air_preset", "atmosphere_model", "aerosol_density", "aerosol_absorption", "atmosphere_preset", "ground_albedo",
+        "ozone_column", "fog_visibility", "fog_height", "animate_sun",
         "day_start_frame", "day_end_frame",
         "middle_gray", "white_point", "luminance_saturation", "auto_exposure", "tone_mapping_operator",
         "light_adaptation", "tone_map_exr", "enable_light_scattering", "lighting_only", "enable_light_shafts",

@@ -28,5 +28,5 @@ def test_hazy_is_hazier_than_clean():
 
 
 def test_an_unknown_preset_is_named():
-    with pytest.raises(ValueError, match="unknown air preset 'fog'; choose one of hazy-summer-day, clean-mountain-air"):
+    with pytest.raises(ValueError, match="unknown air preset 'fog'; choose one of hazy-summer-day, clean-mountain-air, light-haze, heavy-haze"):
         air_presets.preset_density("fog")

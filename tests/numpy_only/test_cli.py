@@ -264,7 +264,7 @@ def test_an_unknown_fog_preset_is_named_and_nothing_is_written(tmp_path):
     result = run("bake", "--out", str(tmp_path / "l"), *SMALL, "--preset", "evening-fog")
     assert result.returncode == 1 and result.stderr.strip().count("\n") == 0
     assert ("unknown preset 'evening-fog'; choose one of clear-sky, sample-2013, hazy-summer-day, "
-            "clean-mountain-air, morning-fog") in result.stderr
+            "clean-mountain-air, light-haze, heavy-haze, morning-fog") in result.stderr
     assert not (tmp_path / "l").exists()
 
 

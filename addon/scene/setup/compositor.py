@@ -181,7 +181,12 @@ def link_light_shafts(scene):
     aerial, tone = tree.nodes.get(names.AERIAL_NODE), tree.nodes.get(names.TONE_NODE)
     layers = tree.nodes.get(names.LAYERS_NODE)
     group = bpy.data.node_groups.get(names.LIGHT_SHAFTS_GROUP)
-    if aerial is None or tone is None or layers is None or group is None:
+    if aerial is None or tone is None or layers is None:
+        return
+    if group is None:
+        # A scene set up under the analytic model has no shaft groups: the frame values still
+        # feed the aerial perspective its camera and sun.
+        _link_frame_values(tree, layers, (aerial,))
         return
     shafts = tree.nodes.get(names.SHAFTS_NODE)
     if shafts is None:
@@ -200,8 +205,15 @@ def link_light_shafts(scene):
         tree.links.new(surface, shafts.inputs["Surface"])
         tree.links.new(aerial.outputs["Transmittance"], shafts.inputs["Transmittance"])
     _ensure_layers_output(tree, surface, aerial, shafts, tone)
+    _link_frame_values(tree, layers, (aerial, shafts, veil))
+
+
+def _link_frame_values(tree, layers, targets):
+    """The "OLS Frame Values" node (made when missing) feeding every input of ``targets`` (None
+    skipped) that it has an output for."""
     frame = tree.nodes.get(names.FRAME_NODE)
     if frame is None:
+        aerial = tree.nodes[names.AERIAL_NODE]
         frame = tree.nodes.new("CompositorNodeGroup")
         frame.name = names.FRAME_NODE
         frame.location = (aerial.location.x - 200, aerial.location.y - 300)
@@ -211,7 +223,7 @@ def link_light_shafts(scene):
         frame.node_tree = nodes.build_frame_values_group(bpy.data.images[names.FRAME_IMAGE])
         nodes.builder.lay_out(frame.node_tree)
     tree.links.new(layers.outputs["Image"], frame.inputs["Image"])
-    for target in (aerial, shafts, veil):
+    for target in targets:
         for output in frame.outputs if target is not None else ():
             if output.name in target.inputs:
                 tree.links.new(output, target.inputs[output.name])
@@ -397,7 +409,9 @@ def sync_settings(scene):
                          "Lighting Only": float(settings.lighting_only), "Scattering Scale": settings.scattering_scale})
     shafts = tree.nodes.get(names.SHAFTS_NODE)
     if shafts is not None and shafts.node_tree is not None:
-        active = settings.enable_light_scattering and settings.enable_light_shafts
+        # The analytic model has no light shafts yet: a shaft group left from the tables stays muted.
+        active = (settings.enable_light_scattering and settings.enable_light_shafts
+                  and scene.get(names.WIRED_KEY) != names.ANALYTIC_WIRED)
         if shafts.mute == active:       # a muted group passes its image through and costs nothing
             shafts.mute = not active
         _set_inputs(shafts, {"Enable": float(settings.enable_light_scattering),

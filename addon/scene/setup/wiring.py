@@ -12,7 +12,8 @@ import bpy
 
 from .... import lut_gen
 from ... import nodes
-from ...settings import Sanitized
+from ...settings import Sanitized, analytic_params
+from ....lut_gen.model import analytic
 from ....lut_gen.tables.lookup import TABLES_WITH_MIE
 from . import compositor, drivers
 from ..frame import cloud_map, epipolar_tables, frame_update, shadow_maps, skylight
@@ -58,6 +59,37 @@ def build_groups(bake_dir, engine="CYCLES"):
     nodes.build_aerial_group(images["optical_depth"], params)
     nodes.builder.lay_out_groups()
     return images, params
+
+
+def wants_analytic(scene) -> bool:
+    """Whether the scene asks for the analytic model (Hoffman & Preetham): no tables."""
+    ols = getattr(scene, "ols", None)
+    return ols is not None and ols.atmosphere_model == "ANALYTIC"
+
+
+def build_analytic_groups(scene):
+    """The analytic model's sky, terrain and aerial perspective under the precomputed groups'
+    names (nodes/analytic.py), and the cloud groups, which read only the cloud map; when they
+    are built already, only their media. No table is read or written. Returns the params."""
+    params = analytic_params(scene.ols)
+    if nodes.analytic.update_media(params):         # a slider change: the numbers only
+        return params
+    nodes.build_analytic_sky_group(params)
+    nodes.build_analytic_terrain_group(params)
+    nodes.build_analytic_aerial_group(params)
+    cloud_map = clouds.ensure_map_image(clouds.seed_of(scene))
+    nodes.build_cloud_shadow_group(cloud_map)
+    nodes.build_cloud_veil_group(cloud_map)
+    nodes.builder.lay_out_groups()
+    return params
+
+
+def _build_for_model(scene, bake_dir):
+    """(images, params) of the groups wire_scene builds: the bake's, or none under the analytic
+    model (bake_dir None)."""
+    if bake_dir is None:
+        return None, build_analytic_groups(scene)
+    return build_groups(bake_dir, scene.render.engine)
 
 
 def build_light_shafts(scene, optical_image, params):
@@ -111,7 +143,7 @@ def match_engine(scene) -> bool:
     """Rebuild the groups when the render engine wants the other look-up filtering (see
     nodes.lookup); True when something was rebuilt."""
     group = bpy.data.node_groups.get(names.LOOKUP_GROUP)
-    if group is None or not scene.get(names.WIRED_KEY):
+    if group is None or not scene.get(names.WIRED_KEY) or wired_bake.is_analytic(scene):
         return False
     if group.get(names.FILTERING_KEY) == nodes.lookup.filtering_for_engine(scene.render.engine):
         return False
@@ -245,8 +277,8 @@ def wire_terrain(obj, sun):
 
 
 def wire_scene(scene, bake_dir, terrain_objects=(), sun=None, resolution="default"):
-    """Everything ``Set up scene`` does, for a bake directory that already holds the tables.
-    Returns the sun lamp used."""
+    """Everything ``Set up scene`` does, for a bake directory that already holds the tables, or
+    for the analytic model with ``bake_dir`` None. Returns the sun lamp used."""
     check_scene(scene)
     sun = sun or sun_lamps.find_sun(scene)
     if sun is not None:
@@ -254,7 +286,7 @@ def wire_scene(scene, bake_dir, terrain_objects=(), sun=None, resolution="defaul
             sun_lamps.direction_to_sun(sun)
         except sun_lamps.SunError as exc:
             raise SetupError(str(exc)) from None
-    images, params = build_groups(bake_dir, scene.render.engine)   # may raise: scene untouched so far
+    images, params = _build_for_model(scene, bake_dir)   # may raise: scene untouched so far
     was_wired = bool(scene.get(names.WIRED_KEY))
     try:
         return _wire_checked(scene, bake_dir, images, params, terrain_objects, sun, resolution)
@@ -275,9 +307,11 @@ def _wire_checked(scene, bake_dir, images, params, terrain_objects, sun, resolut
     for obj in terrain_objects:
         wire_terrain(obj, sun)
     clouds.wire(scene, sun)
-    build_light_shafts(scene, images["optical_depth"], params)
+    if images is not None:          # the analytic model has no light shafts yet
+        build_light_shafts(scene, images["optical_depth"], params)
     compositor.wire_compositor(scene)
-    scene[names.WIRED_KEY] = lut_gen.store.exr_io.verify_bake(bake_dir)     # verified by build_groups: cached
+    scene[names.WIRED_KEY] = (names.ANALYTIC_WIRED if bake_dir is None
+                              else lut_gen.store.exr_io.verify_bake(bake_dir))     # verified by build_groups: cached
     scene[names.RESOLUTION_KEY] = resolution
     refresh(scene, force=True)
     luts.release_unused_images()
@@ -289,6 +323,9 @@ def refresh(scene, force=False):
     the origin) and the lighting panorama."""
     info = wired_bake.bake_info(scene)
     sun = sun_lamps.find_sun(scene)
+    if wired_bake.is_analytic(scene) and sun is not None:
+        _refresh_analytic(scene, sun)
+        return
     if info is None or sun is None:
         return
     sun_lamps.update_sun_colour(sun, info.origin_transmittance)
@@ -302,6 +339,39 @@ def refresh(scene, force=False):
     position = scene.camera.matrix_world.translation if scene.camera else (0.0, 0.0, 0.0)
     skylight.update(info, sun_lamps.direction_to_sun(sun), position[2], force, clouds=cloud_map.numpy_layer(scene),
                     camera_xy=(position[0], position[1]))
+
+
+def _refresh_analytic(scene, sun):
+    """refresh under the analytic model: the lamp's colour is the model's sun extinction at the
+    origin (Eq. 5); its groups read no panorama."""
+    media = analytic.media(analytic_params(scene.ols))
+    sun_lamps.update_sun_colour(sun, lambda cos_sun: analytic.sun_transmittance(media, cos_sun))
+    for material in bpy.data.materials:
+        group = material.node_tree.nodes.get(names.TERRAIN_GROUP) if material.get(names.GENERATED) and material.node_tree else None
+        if group is not None:
+            set_origin_transmittance(group, sun.data.color)
+    compositor.sync_settings(scene)
+    frame_update.write_frame_values(scene)
+    clouds.repair(scene)
+
+
+def use_model(scene, bake_dir=None):
+    """Switch a wired scene between the models: to the analytic groups (``bake_dir`` None) or to
+    the tables in ``bake_dir`` (the light-shaft groups built when the scene had none)."""
+    if bake_dir is None:
+        build_analytic_groups(scene)
+        scene[names.WIRED_KEY] = names.ANALYTIC_WIRED
+        if names.PREVIEW_KEY in scene:
+            del scene[names.PREVIEW_KEY]
+        refresh(scene, force=True)
+        return
+    images, params = build_groups(bake_dir, scene.render.engine)
+    scene[names.WIRED_KEY] = lut_gen.store.exr_io.verify_bake(bake_dir)
+    if bpy.data.node_groups.get(names.LIGHT_SHAFTS_GROUP) is None:
+        build_light_shafts(scene, images["optical_depth"], params)
+        compositor.link_light_shafts(scene)
+    refresh(scene, force=True)
+    luts.release_unused_images()
 
 
 def forget_caches():

@@ -78,9 +78,14 @@ class BakeInfo:
 _bake_info = {}
 
 
+def is_analytic(scene) -> bool:
+    """Wired to the analytic model: no bake behind the scene."""
+    return scene is not None and scene.get(names.WIRED_KEY) == names.ANALYTIC_WIRED
+
+
 def bake_info(scene):
     key = scene.get(names.WIRED_KEY)
-    if not key:
+    if not key or key == names.ANALYTIC_WIRED:
         return None
     info = _bake_info.get(key)
     if info is not None:
@@ -98,7 +103,7 @@ def table_problem(scene):
     """Why the wired ``scene``'s tables must not render (LutError text naming the file and the
     fix), or None: they verify (cached hashes, so this costs only stats)."""
     key = scene.get(names.WIRED_KEY) if scene is not None else None
-    if not key:
+    if not key or key == names.ANALYTIC_WIRED:
         return None
     try:
         luts.verify_wired(key)
