@@ -328,14 +328,7 @@ def refresh(scene, force=False):
         return
     if info is None or sun is None:
         return
-    sun_lamps.update_sun_colour(sun, info.origin_transmittance)
-    for material in bpy.data.materials:
-        group = material.node_tree.nodes.get(names.TERRAIN_GROUP) if material.get(names.GENERATED) and material.node_tree else None
-        if group is not None:
-            set_origin_transmittance(group, sun.data.color)
-    compositor.sync_settings(scene)
-    frame_update.write_frame_values(scene)
-    clouds.repair(scene)
+    _refresh_lamp_and_groups(scene, sun, info.origin_transmittance)
     position = scene.camera.matrix_world.translation if scene.camera else (0.0, 0.0, 0.0)
     skylight.update(info, sun_lamps.direction_to_sun(sun), position[2], force, clouds=cloud_map.numpy_layer(scene),
                     camera_xy=(position[0], position[1]))
@@ -345,7 +338,13 @@ def _refresh_analytic(scene, sun):
     """refresh under the analytic model: the lamp's colour is the model's sun extinction at the
     origin (Eq. 5); its groups read no panorama."""
     media = analytic.media(analytic_params(scene.ols))
-    sun_lamps.update_sun_colour(sun, lambda cos_sun: analytic.sun_transmittance(media, cos_sun))
+    _refresh_lamp_and_groups(scene, sun, lambda cos_sun: analytic.sun_transmittance(media, cos_sun))
+
+
+def _refresh_lamp_and_groups(scene, sun, origin_transmittance):
+    """The lamp's colour from ``origin_transmittance`` (cos sun zenith -> RGB), the terrain
+    materials' copy of it, the compositor's settings, the frame values and the cloud layer."""
+    sun_lamps.update_sun_colour(sun, origin_transmittance)
     for material in bpy.data.materials:
         group = material.node_tree.nodes.get(names.TERRAIN_GROUP) if material.get(names.GENERATED) and material.node_tree else None
         if group is not None:
