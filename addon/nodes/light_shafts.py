@@ -289,6 +289,7 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
                                                    offset)
         light, unshadowed = _brute_force_difference(g, camera, end, direction, sun, layout, lit_length, first_lit,
                                                     integrated)
+        light = jitter.neighbourhood_mean(g, light, length, gin.outputs["Jitter Steps"])
         base = gin.outputs["Image"]
     scale3 = g.combine(scale, scale, scale)
     # Sky pixels take the share of the darkening their own light allows (twin and why:

@@ -188,7 +188,9 @@ def light_shafts(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades,
     offsets = jitter.step_offsets(*np.shape(end)[:2], settings.jitter_steps)      # end: (H, W, 3)
     shadowed = aerial.light_shafts(luts, camera.position, end, sun, is_lit, settings.num_integration_steps,
                                    settings.single_scattering_mode, settings.multiple_scattering_mode, offsets)
-    return shadowed - unshadowed
+    if not settings.jitter_steps:
+        return shadowed - unshadowed
+    return jitter.neighbourhood_mean(shadowed - unshadowed, np.linalg.norm(end - camera.position, axis=-1))
 
 
 def cascade_tint(cascades: ShadowCascades, points, camera: Camera, settings: PassSettings):

@@ -392,8 +392,9 @@ def test_in_scattering_tables_are_reused_while_the_camera_and_sun_stay(addon_pac
 
 def test_jitter_steps_offsets_each_pixel_as_the_twin_does(addon_package, tmp_path, monkeypatch):
     """Brute force with Jitter Steps: the compositor's per-pixel offsets (interleaved gradient
-    noise of the pixel's coordinates) match lut_gen.passes.jitter, and they change the picture
-    (the control is not a no-op)."""
+    noise of the pixel's coordinates) and its depth-aware 3 x 3 mean of the darkening (Translate
+    nodes) match lut_gen.passes.jitter, and they change the picture (the control is not a
+    no-op)."""
     scene = low_sun_scene(addon_package, tmp_path, monkeypatch, steps=8)
     scene.ols.scattering_technique = "BRUTE_FORCE"
     passes = render_passes(addon_package, scene, tmp_path)
