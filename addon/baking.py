@@ -4,15 +4,18 @@ wired scene. Operators, handlers, batch renders, benches and tests all bake thro
 ``BackgroundBake`` runs a bake on a worker thread so that Blender stays responsive; its state is
 read by the Bake Tables operator's modal timer on the main thread (bpy is touched only there).
 
-The preview: a default bake takes 17-25 s on two cores, the draft (half every axis) about 1.5 s.
-A background bake of tables that are not cached bakes the draft first; the operator shows it
-(swap_in with preview=True) and swaps the full tables in when they are done. A scene showing a
+The preview: a default bake takes 17-25 s on two cores, the draft (half every axis) about 1.5 s
+and its swap into the scene 2-3 s more. A background bake of tables that are not cached bakes the
+draft first; the operator shows the analytic model at once (``analytic_can_stand_in``: it has no
+twilight, fog or clouds, so only where the scene has none of those), then the draft (swap_in with
+preview=True), which is closer to the tables, and swaps the full tables in when they are done. A scene showing a
 preview says so (names.PREVIEW_KEY): the panel, F12 (which waits), the Render operator and a
 file opened later (which re-bakes) all read it. A newer bake supersedes an older one: the older
 stops at its next progress report and never swaps in (``latest``).
 """
 from __future__ import annotations
 
+import math
 import threading
 import traceback
 from pathlib import Path
@@ -21,9 +24,10 @@ import bpy
 
 from .. import lut_gen
 from .scene import names
+from .scene import sun as sun_lamps
 from .scene.setup import wiring
 from .scene.tables import wired_bake
-from .settings import atmosphere_params
+from .settings import atmosphere_params, fog_fields
 
 
 def bake_directory(params, resolution="default") -> Path:
@@ -52,15 +56,12 @@ def swap_in(scene, directory, preview: bool = False):
 
 
 def settle(scene) -> bool:
-    """Before a render: a scene showing the draft preview gets the tables it asked for now
-    (waiting for the running bake, or baking them), so that no frame renders with the draft.
-    True when it swapped tables in. Also a scene still on the analytic groups that asks for
-    the tables again (a script switched the model back before they were baked)."""
-    if wired_bake.is_analytic(scene) and not wiring.wants_analytic(scene):
-        params = atmosphere_params(scene.ols).validate()
-        swap_in(scene, bake_if_needed(params, scene.get(names.RESOLUTION_KEY, "default")))
-        return True
-    if not showing_preview(scene):
+    """Before a render: a scene showing a preview (the analytic model or the draft) gets the
+    tables it asked for now (waiting for the running bake, or baking them), so that no frame
+    renders a preview. True when it swapped tables in. Also a scene still on the analytic groups
+    that asks for the tables again (a script switched the model back before they were baked)."""
+    stand_in = wired_bake.is_analytic(scene) and not wiring.wants_analytic(scene)
+    if not (stand_in or showing_preview(scene)):
         return False
     running = latest()
     if running is not None:
@@ -78,8 +79,38 @@ def mark_preview(scene, preview: bool):
 
 
 def showing_preview(scene) -> bool:
-    """True while a wired scene shows the draft preview of tables still baking."""
+    """True while a wired scene shows a preview (the analytic model, then the draft) of tables
+    still baking."""
     return scene is not None and bool(scene.get(names.WIRED_KEY)) and bool(scene.get(names.PREVIEW_KEY))
+
+
+def preview_name(scene) -> str:
+    return "analytic" if wired_bake.is_analytic(scene) else "draft"
+
+
+# The analytic sky is black once the sun is below this (Eq. 5 has no twilight, docs/analytic.md).
+STAND_IN_MIN_SUN_ELEVATION_DEG = 2.0
+
+
+def analytic_can_stand_in(scene) -> bool:
+    """Whether the analytic model may stand in for tables still baking, before the draft: only
+    where it shows what the scene asks for, with the sun up and no fog or clouds (the analytic
+    groups have none of those); elsewhere the old look stays until the draft."""
+    sun = sun_lamps.find_sun(scene)
+    if sun is None or scene.ols.clouds_enabled or fog_fields(scene.ols):
+        return False
+    try:
+        direction = sun_lamps.direction_to_sun(sun)
+    except sun_lamps.SunError:
+        return False
+    return float(direction[2]) > math.sin(math.radians(STAND_IN_MIN_SUN_ELEVATION_DEG))
+
+
+def show_analytic_stand_in(scene):
+    """The analytic model's groups on a wired scene at once, marked as a preview: the running
+    bake's draft and then its full tables replace them (swap_in)."""
+    wiring.use_model(scene, None)
+    mark_preview(scene, True)
 
 
 PREVIEW_RESOLUTION = "draft"
@@ -161,11 +192,11 @@ def latest():
     return _latest if _latest is not None and not _latest.done else None
 
 
-def progress_line(bake) -> str:
+def progress_line(bake, scene=None) -> str:
     """The status bar's and the panel's line for a running bake."""
     line = f"Baking atmosphere tables {bake.fraction * 100:.0f}%: {bake.stage}"
-    if bake.preview_ready:
-        line += " (showing the draft preview)"
+    if showing_preview(scene):
+        line += f" (showing the {preview_name(scene)} preview)"
     if bake.render_after:
         line += "; the render starts when they are done"
     return line

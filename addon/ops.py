@@ -48,6 +48,21 @@ class OLS_OT_bake_luts(bpy.types.Operator):
         elif scene.get(names.WIRED_KEY):
             baking.swap_in(scene, directory, preview=preview)
 
+    def _show_stand_in(self, context):
+        """While the draft bakes: the analytic model at once, where it can stand in for the
+        tables (baking.analytic_can_stand_in); the draft replaces it when ready."""
+        scene = context.scene
+        if not baking.analytic_can_stand_in(scene):
+            return
+        try:
+            if self.setup_after and not scene.get(names.WIRED_KEY):
+                wiring.wire_scene(scene, None, terrain_candidates(context), resolution=self.resolution)
+                baking.mark_preview(scene, True)
+            elif scene.get(names.WIRED_KEY) and not wiring.wants_analytic(scene):
+                baking.show_analytic_stand_in(scene)
+        except (wiring.SetupError, lut_gen.LutError, OSError, RuntimeError) as exc:
+            self.report({"WARNING"}, f"The analytic preview cannot be shown ({exc}); the tables are still baking")
+
     def _finish(self, context, directory):
         try:
             self._show(context, directory)
@@ -77,8 +92,9 @@ class OLS_OT_bake_luts(bpy.types.Operator):
         return self._finish(context, directory)
 
     def invoke(self, context, event):
-        """In the UI: bake on a worker thread, keep Blender responsive, show the draft preview
-        when it is ready and swap the full tables in when done."""
+        """In the UI: bake on a worker thread, keep Blender responsive, show the analytic model
+        at once where it can stand in, the draft preview when it is ready and swap the full
+        tables in when done."""
         try:
             self._params = atmosphere_params(context.scene.ols).validate()
         except ValueError as exc:
@@ -88,6 +104,8 @@ class OLS_OT_bake_luts(bpy.types.Operator):
             return self._finish(context, baking.bake_directory(self._params, self.resolution))
         self._bake = baking.BackgroundBake(self._params, self.resolution, preview=self.preview)
         self._preview_shown = False
+        if self._bake.preview_resolution is not None:
+            self._show_stand_in(context)
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.2, window=context.window)
         wm.progress_begin(0, 100)
@@ -111,7 +129,7 @@ class OLS_OT_bake_luts(bpy.types.Operator):
             except (wiring.SetupError, lut_gen.LutError, OSError, RuntimeError) as exc:
                 self.report({"WARNING"}, f"The draft preview cannot be shown ({exc}); the full tables are still baking")
         wm.progress_update(int(bake.fraction * 100))
-        context.workspace.status_text_set(baking.progress_line(bake))
+        context.workspace.status_text_set(baking.progress_line(bake, context.scene))
         _redraw_sidebars(context)
         if not bake.done:
             return {"RUNNING_MODAL"}

@@ -28,7 +28,7 @@ def _rebake_soon(settings, context):
     """Changing the media re-bakes the tables in the background and swaps them into a wired
     scene (interactive sessions only; scripts call bpy.ops.ols.bake_luts themselves). Under the
     analytic model the groups are rebuilt at once instead, in scripts too: nothing to bake."""
-    if context.scene is not None and wired_bake.is_analytic(context.scene):
+    if context.scene is not None and wiring.wants_analytic(context.scene) and wired_bake.is_analytic(context.scene):
         wiring.use_model(context.scene)
         return
     if bpy.app.background or context.scene is None or not context.scene.get(names.WIRED_KEY):

@@ -110,7 +110,7 @@ def draw_bake_progress(layout, scene):
     box.label(text=f"Baking tables: {bake.stage}", icon='SORTTIME')
     box.progress(factor=bake.fraction, text=f"{bake.fraction * 100:.0f}%")
     if baking.showing_preview(scene):
-        box.label(text="Showing the draft preview until they are done")
+        box.label(text=f"Showing the {baking.preview_name(scene)} preview until they are done")
     if bake.render_after:
         box.label(text="The render starts when they are done")
 

@@ -68,7 +68,7 @@ def test_a_change_shows_the_preview_then_the_new_tables(wired):
     assert baking.showing_preview(scene)
     assert scene[names.WIRED_KEY] == bake.preview_directory.name != old_key
     assert sky_images(scene).isdisjoint(old_images)
-    assert "draft preview" in baking.progress_line(bake) or bake.done
+    assert "draft preview" in baking.progress_line(bake, scene) or bake.done
     assert bake.wait(300) and not bake.error and not bake.superseded
     baking.swap_in(scene, bake.directory)
     assert not baking.showing_preview(scene)
@@ -139,8 +139,9 @@ class FakeWindowManager:
 
 
 def test_the_bake_operator_shows_the_preview_and_renders_after_f12(wired, monkeypatch):
-    """The Bake Tables operator's modal steps as the UI's timer drives them: F12 pressed while
-    baking is held back, the preview is shown when ready, then the full tables, then the render."""
+    """The Bake Tables operator's modal steps as the UI's timer drives them: the analytic model
+    stands in at once, F12 pressed while baking is held back, the draft preview is shown when
+    ready, then the full tables, then the render."""
     scene, baking = wired
     ops = extension_module("addon.ops")
     renders = []
@@ -149,24 +150,31 @@ def test_the_bake_operator_shows_the_preview_and_renders_after_f12(wired, monkey
     context = types.SimpleNamespace(scene=scene, window_manager=wm, workspace=wm, screen=None, selected_objects=[])
     operator = types.SimpleNamespace(resolution=FULL, setup_after=False, preview=True, reports=[])
     operator.report = lambda kind, message: operator.reports.append((kind, message))
-    for method in ("_show", "_finish"):
+    for method in ("_show", "_finish", "_show_stand_in"):
         setattr(operator, method, getattr(ops.OLS_OT_bake_luts, method).__get__(operator))
     operator._params = changed_params(scene)
+    started = time.perf_counter()
     operator._bake = baking.BackgroundBake(operator._params, FULL, preview=True)
     operator._preview_shown, operator._timer = False, None
+    operator._show_stand_in(context)                                   # what invoke does next
+    print(f"analytic stand-in on screen {time.perf_counter() - started:.2f} s after the change")
+    assert baking.showing_preview(scene) and baking.preview_name(scene) == "analytic"
+    assert not operator.reports
     modal = ops.OLS_OT_bake_luts.modal
     f12 = types.SimpleNamespace(type="F12", value="PRESS", ctrl=False)
     assert modal(operator, context, f12) == {"RUNNING_MODAL"}          # held back, not passed on
     timer = types.SimpleNamespace(type="TIMER", value="NOTHING", ctrl=False)
-    seen_preview = False
+    seen = set()
     end = time.monotonic() + 300
     while (result := modal(operator, context, timer)) == {"RUNNING_MODAL"}:
-        seen_preview |= baking.showing_preview(scene)
+        if baking.showing_preview(scene):
+            seen.add(baking.preview_name(scene))
         assert time.monotonic() < end, "timed out"
         time.sleep(0.05)
     assert result == {"FINISHED"}, operator.reports
-    assert seen_preview and not baking.showing_preview(scene)
+    assert seen == {"analytic", "draft"} and not baking.showing_preview(scene)
     assert scene[names.WIRED_KEY] == baking.bake_directory(operator._params, FULL).name
+    assert any("analytic preview" in (line or "") for line in wm.status)
     assert any("draft preview" in (line or "") for line in wm.status) and wm.status[-1] is None
     assert renders == [{"animation": False}]                            # F12's render, after the swap
 
@@ -180,3 +188,28 @@ def test_unwiring_drops_the_preview_mark(wired):
     assert names.PREVIEW_KEY not in scene and not baking.showing_preview(scene)
     scene[names.PREVIEW_KEY] = True                 # a stale mark on an unwired scene
     assert not baking.showing_preview(scene)
+
+
+def test_the_analytic_model_stands_in_only_where_it_shows_what_the_scene_asks_for(wired):
+    """No analytic stand-in with fog, clouds or the sun below 2 deg (it has none of those: its
+    sky is black without the sun); the draft alone then. A render in the stand-in settles to
+    the tables asked for."""
+    scene, baking = wired
+    assert baking.analytic_can_stand_in(scene)
+    scene.ols.fog_visibility = 2000.0
+    assert not baking.analytic_can_stand_in(scene)
+    scene.ols.fog_visibility = 0.0
+    scene.ols.clouds_enabled = True
+    assert not baking.analytic_can_stand_in(scene)
+    scene.ols.clouds_enabled = False
+    sun = extension_module("addon.scene.sun").find_sun(scene)
+    rotation = tuple(sun.rotation_euler)
+    sun.rotation_euler = (0.0, -1.55, 0.0)           # the sun 1.2 deg up
+    bpy.context.view_layer.update()
+    assert not baking.analytic_can_stand_in(scene)
+    sun.rotation_euler = rotation
+    bpy.context.view_layer.update()
+    key = scene[names.WIRED_KEY]
+    baking.show_analytic_stand_in(scene)
+    assert baking.preview_name(scene) == "analytic" and baking.showing_preview(scene)
+    assert baking.settle(scene) and scene[names.WIRED_KEY] == key and not baking.showing_preview(scene)
