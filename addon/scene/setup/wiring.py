@@ -78,10 +78,28 @@ def build_analytic_groups(scene):
     nodes.build_analytic_terrain_group(params)
     nodes.build_analytic_aerial_group(params)
     cloud_map = clouds.ensure_map_image(clouds.seed_of(scene))
-    nodes.build_cloud_shadow_group(cloud_map)
-    nodes.build_cloud_veil_group(cloud_map)
+    if not _cloud_groups_read(cloud_map):       # both models build the same ones: kept on a switch
+        nodes.build_cloud_shadow_group(cloud_map)
+        nodes.build_cloud_veil_group(cloud_map)
     nodes.builder.lay_out_groups()
     return params
+
+
+def _cloud_groups_read(cloud_map) -> bool:
+    """Whether the cloud shadow and veil groups exist and every image they read (nested groups
+    included) is ``cloud_map``."""
+    def images(tree, seen):
+        for node in tree.nodes:
+            if getattr(node, "node_tree", None) is not None and node.node_tree.name not in seen:
+                seen.add(node.node_tree.name)
+                yield from images(node.node_tree, seen)
+            elif hasattr(node, "image"):
+                yield node.image
+    groups = [bpy.data.node_groups.get(name) for name in (names.CLOUD_SHADOW_GROUP, names.CLOUD_VEIL_GROUP)]
+    if any(group is None or len(group.nodes) < 3 for group in groups):
+        return False
+    read = [image for group in groups for image in images(group, set())]
+    return bool(read) and all(image == cloud_map for image in read)
 
 
 def _build_for_model(scene, bake_dir):
