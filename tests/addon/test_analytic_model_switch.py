@@ -52,6 +52,17 @@ def test_switching_to_analytic_and_back_renders_the_same_pixels_without_a_re_bak
     assert scene["ols_bake_key"] == key
     after = render_rgb(scene, tmp_path / "after.exr", composite=True)
     np.testing.assert_allclose(after, before, rtol=0, atol=1e-5)
+
+    # Again: the formula groups come back from the copies kept at the first switch (no node built).
+    nodes = extension_module("addon.nodes")
+    monkeypatch.setattr(nodes, "build_analytic_sky_group", lambda *a: pytest.fail("rebuilt the analytic sky"))
+    started = time.perf_counter()
+    scene.ols.atmosphere_model = "ANALYTIC"
+    print(f"second switch to analytic: {time.perf_counter() - started:.3f} s")
+    again = render_rgb(scene, tmp_path / "analytic_again.exr", composite=True)
+    np.testing.assert_allclose(again, analytic, rtol=0, atol=1e-6)
+    scene.ols.atmosphere_model = "PRECOMPUTED"
+    np.testing.assert_allclose(render_rgb(scene, tmp_path / "after2.exr", composite=True), before, rtol=0, atol=1e-5)
     assert sorted((p.name, p.stat().st_mtime_ns) for p in (tmp_path / "cache").rglob("*")) == files
 
 

@@ -74,9 +74,12 @@ def build_analytic_groups(scene):
     params = analytic_params(scene.ols)
     if nodes.analytic.update_media(params):         # a slider change: the numbers only
         return params
-    nodes.build_analytic_sky_group(params)
-    nodes.build_analytic_terrain_group(params)
-    nodes.build_analytic_aerial_group(params)
+    if not nodes.analytic.restore_formula_groups(params):
+        nodes.build_analytic_sky_group(params)
+        nodes.build_analytic_terrain_group(params)
+        nodes.build_analytic_aerial_group(params)
+        nodes.builder.lay_out_groups()
+        nodes.analytic.keep_formula_groups()
     cloud_map = clouds.ensure_map_image(clouds.seed_of(scene))
     if not _cloud_groups_read(cloud_map):       # both models build the same ones: kept on a switch
         nodes.build_cloud_shadow_group(cloud_map)
