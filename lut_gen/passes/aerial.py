@@ -16,6 +16,8 @@ World convention (docs/design.md): metres, Z up, ground at z = 0, Earth centre a
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..tables import parameterization as par
@@ -131,17 +133,41 @@ def light_shafts(luts: Luts, camera, end, sun_direction, is_lit, steps: int = 32
     """(..., 3) in-scattering along camera -> end with sun shadows, per unit sun.
 
     ``is_lit(points) -> array`` tells how much of the sun reaches world points (the shadow
-    map: 0 or 1, or fractions with PCF). The march takes ``steps`` samples, at the step centres
-    or at ``offsets`` (..., in [0, 1): lut_gen.passes.jitter) within each step, and
+    map: 0 or 1, or fractions with PCF). The march (``march``) takes ``steps`` samples, at the
+    step centres or at ``offsets`` (..., in [0, 1): lut_gen.passes.jitter) within each step, and
     finds the lit length and the distance to the first lit sample (the sample's D_lit,
     D_start), its first shadow edge refined between samples (lut_gen.passes.shaft_boundary),
     then applies the modes.
     """
     check_modes(single_mode, multiple_mode)
-    camera = np.asarray(camera, float)
-    end = np.asarray(end, float)
-    camera, end = np.broadcast_arrays(camera, end)
+    camera, end = np.broadcast_arrays(np.asarray(camera, float), np.asarray(end, float))
     sun = np.asarray(sun_direction, float) / np.linalg.norm(sun_direction)
+    marched = march(camera, end, is_lit, steps, offsets)
+    integrated = None
+    if single_mode == "INTEGRATION":
+        integrated = np.sum(integration_terms(luts, camera, marched.direction, marched.samples,
+                                              marched.step[..., None], sun) * marched.lit[..., None], axis=-2)
+    return apply_modes(luts, camera, end, sun, marched.lit_length, marched.first_lit, integrated, single_mode,
+                       multiple_mode)
+
+
+@dataclass
+class March:
+    """What a brute-force march of pixel rays found (``march``): per ray its unit direction,
+    step length, sample points (..., steps, 3) and their lit fractions (..., steps), the lit
+    length and the first lit distance (first shadow edge refined)."""
+    direction: np.ndarray
+    step: np.ndarray
+    samples: np.ndarray
+    lit: np.ndarray
+    lit_length: np.ndarray
+    first_lit: np.ndarray
+
+
+def march(camera, end, is_lit, steps: int, offsets=None) -> March:
+    """The shadow tests of light_shafts, whatever the atmosphere: the analytic model's shafts
+    (lut_gen.passes.analytic_shafts) march the same samples and refine the same edge."""
+    camera, end = np.broadcast_arrays(np.asarray(camera, float), np.asarray(end, float))
     ray = end - camera
     length = np.linalg.norm(ray, axis=-1)
     direction = ray / np.maximum(length, 1e-9)[..., None]
@@ -160,11 +186,7 @@ def light_shafts(luts: Luts, camera, end, sun_direction, is_lit, steps: int = 32
                                  after)
     lit_length = lit_length + np.where(crossed, (before - after) * (edge - k * step), 0.0)
     first_lit = np.where(crossed & (lit[..., 0] < shaft_boundary.HALF), edge, first_lit)
-    integrated = None
-    if single_mode == "INTEGRATION":
-        integrated = np.sum(integration_terms(luts, camera, direction, samples, step[..., None], sun) * lit[..., None],
-                            axis=-2)
-    return apply_modes(luts, camera, end, sun, lit_length, first_lit, integrated, single_mode, multiple_mode)
+    return March(direction, step, samples, lit, lit_length, first_lit)
 
 
 def check_modes(single_mode, multiple_mode):

@@ -232,13 +232,17 @@ def initial_samples(samples: int, step: int, density: int) -> np.ndarray:
 
 
 def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Camera, smooth: bool,
-          best_search: bool, first_cascade: int, luts=None, integrate: bool = False, maps=None, clouds=None):
+          best_search: bool, first_cascade: int, luts=None, integrate: bool = False, maps=None, clouds=None,
+          integral=None):
     """(lit length, first lit, integrated or None, geometry's lit length) at the frame's
     distances for rays ``directions`` (n, 3): one shadow test per distance interval at its
     centre, as the brute force march does per step. ``maps`` (lut_gen.passes.min_max) skip the
     taps of decided points; ``clouds`` ((layer, map)) weight every test by the cloud's
     transmittance (lut_gen.clouds.shafts). The geometry's lit length is the lit length without
-    the clouds (the lit length itself when there are none): what the refinement looks at."""
+    the clouds (the lit length itself when there are none): what the refinement looks at.
+    ``integral(directions, t, lit) -> (n, K, 3)``, given, is the INTEGRATION table instead of the
+    tables' single scattering (the analytic model's, lut_gen.passes.analytic_shafts), from the
+    lit fraction of each distance interval (n, K - 1)."""
     t = frame.distances()
     centres = 0.5 * (t[1:] + t[:-1])
     lengths = np.diff(t)
@@ -281,7 +285,9 @@ def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Ca
     starts_shadowed = crossed & (lit[:, :1] < shaft_boundary.HALF)
     first_lit = np.where(starts_shadowed, np.minimum(t[None, :], edge), first_lit)
     integrated = None
-    if integrate:
+    if integrate and integral is not None:
+        integrated = integral(directions, t, lit)
+    elif integrate:
         sun = frame.sun
         terms = aerial.integration_terms(luts, camera.position, directions, points,
                                          np.broadcast_to(lengths, lit.shape), sun)
@@ -292,9 +298,9 @@ def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Ca
 
 def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera, settings: EpipolarSettings,
                  smooth: bool = True, best_search: bool = True, first_cascade: int = 0, luts=None,
-                 integrate: bool = False, clouds=None) -> EpipolarTables:
+                 integrate: bool = False, clouds=None, integral=None) -> EpipolarTables:
     """March the initial samples of every slice, refine between marched neighbours that
-    disagree, and interpolate the rest along each slice."""
+    disagree, and interpolate the rest along each slice (``integral``: as for march)."""
     settings = settings.checked()
     nodes = frame.node_directions()
     n_slices, n_samples = nodes.shape[:2]
@@ -320,7 +326,7 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
         for start in range(0, len(idx[0]), chunk):
             sel = (idx[0][start:start + chunk], idx[1][start:start + chunk])
             L, F, S, G = march(frame, nodes[sel], cascades, camera, smooth, best_search, first_cascade, luts,
-                               integrate, maps, clouds)
+                               integrate, maps, clouds, integral)
             lit_length[sel], first_lit[sel] = L, F
             if clouds is not None:
                 geometry_length[sel] = G
