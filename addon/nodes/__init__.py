@@ -14,6 +14,7 @@ from . import analytic, builder, epipolar, frame_values, lookup  # noqa: F401 (t
 from .aerial import build_aerial_group
 from .analytic import (build_analytic_aerial_group, build_analytic_sky_group, build_analytic_terrain_group,
                        build_media_group)
+from .analytic_shafts import build_analytic_integration_group, build_analytic_light_shaft_groups
 from .cloud_shadow import build_cloud_shadow_group
 from .cloud_veil import build_cloud_veil_group, build_cloud_veil_step_group
 from .clouds import build_cloud_group
@@ -45,6 +46,7 @@ _SKY_TEST = "tests/twins/test_sky_group.py::test_sky_render_matches_numpy_twin"
 _VEIL_TEST = "tests/twins/test_cloud_veil.py::test_peaks_in_the_cloud_are_veiled_as_the_twin_says"
 _ANALYTIC_TESTS = "tests/twins/test_analytic_groups.py::"
 _CLOUDS_TEST = "tests/twins/test_cloud_sky.py::test_cloudy_sky_render_matches_numpy_twin"
+_ANALYTIC_SHAFTS_TEST = "tests/twins/test_analytic_shafts.py::test_analytic_shafts_match_the_twin_in_every_mode"
 
 GROUPS = (
     Group(names.LOOKUP_GROUP, build_lookup_group, "lut_gen.tables.lookup.Luts.sky_radiance", _SKY_TEST),
@@ -82,6 +84,12 @@ GROUPS = (
           _ANALYTIC_TESTS + "test_analytic_sky_matches_its_twin"),
     Group(names.ANALYTIC_MEDIA_COMPOSITOR_GROUP, build_media_group, "lut_gen.model.analytic.media",
           _ANALYTIC_TESTS + "test_analytic_aerial_perspective_matches_its_twin"),
+    Group(names.LIGHT_SHAFTS_GROUP, build_analytic_light_shaft_groups, "lut_gen.passes.analytic_shafts.scattering_pass",
+          _ANALYTIC_SHAFTS_TEST),
+    Group(names.ANALYTIC_INTEGRATION_GROUP, build_analytic_integration_group,
+          "lut_gen.passes.analytic_shafts.step_integral", _ANALYTIC_SHAFTS_TEST),
+    *(Group(name, build_march_chunk_group, "lut_gen.passes.analytic_shafts.light_shafts", _ANALYTIC_SHAFTS_TEST)
+      for name in (names.ANALYTIC_MARCH_CHUNK_GROUP, names.ANALYTIC_MARCH_REST_GROUP)),
     Group(names.TONE_MAPPING_GROUP, build_tone_mapping_group, "lut_gen.passes.tone_mapping.tone_map",
           "tests/twins/test_tone_mapping.py::test_every_operator_matches_the_sample_formula"),
 )

@@ -78,7 +78,8 @@ class Media:
         self.ambient = [out[_ambient_socket(k)] for k in range(analytic.AMBIENT_NODES)] if not compositor else []
 
 
-def _exp_neg(g, x):
+def exp_neg(g, x):
+    """exp(-x), its argument capped at MAX_DEPTH."""
     return g.math("EXPONENT", g.mul(g.math("MINIMUM", x, MAX_DEPTH), -1.0))
 
 
@@ -118,7 +119,7 @@ def sun_transmittance(g, m, cos_sun, height):
     air, haze = densities(g, m, height)
     s_air, s_haze = g.mul(g.mul(mass, m.air_length), air), g.mul(g.mul(mass, m.haze_length), haze)
     visible = sun_visibility(g, cos_sun)
-    return [g.mul(_exp_neg(g, g.add(g.mul(s_air, m.rayleigh[i]), g.mul(s_haze, m.haze_extinction[i]))), visible)
+    return [g.mul(exp_neg(g, g.add(g.mul(s_air, m.rayleigh[i]), g.mul(s_haze, m.haze_extinction[i]))), visible)
             for i in range(3)]
 
 
@@ -132,19 +133,25 @@ def phases(g, m, cos_sun_view):
     return rayleigh, haze
 
 
+def transmittance_and_reach(g, beta, length):
+    """(exp(-beta s), (1 - exp(-beta s)) / beta) of one channel for a segment of ``length`` s:
+    the second is the distance the segment weighs in Eq. 4 (lut_gen.passes.analytic_shafts.reach)."""
+    depth = g.mul(length, beta)
+    t = exp_neg(g, depth)
+    # (1 - exp(-x)) / x, its series below SERIES_BELOW; times the length gives the reach
+    exact = g.div(g.sub(1.0, t), g.math("MAXIMUM", depth, 1e-30))
+    series = g.mul_add(depth, g.mul_add(depth, 1.0 / 6.0, -0.5), 1.0)
+    small = g.math("LESS_THAN", depth, SERIES_BELOW)
+    return t, g.mul(g.select(exact, series, small), length)
+
+
 def segment(g, m, phase, length, e_sun, air=1.0, haze=1.0):
     """analytic.segment per channel: ([F_ex], [L_in]) for a constant-density segment."""
     rayleigh_phase, haze_phase = phase
     transmittance, inscatter = [], []
     for i in range(3):
         beta = _sum(g, _scaled(g, m.rayleigh[i], air), _scaled(g, m.haze_extinction[i], haze))
-        depth = g.mul(length, beta)
-        t = _exp_neg(g, depth)
-        # (1 - exp(-x)) / x, its series below SERIES_BELOW; times the length gives the reach
-        exact = g.div(g.sub(1.0, t), g.math("MAXIMUM", depth, 1e-30))
-        series = g.mul_add(depth, g.mul_add(depth, 1.0 / 6.0, -0.5), 1.0)
-        small = g.math("LESS_THAN", depth, SERIES_BELOW)
-        reach = g.mul(g.select(exact, series, small), length)
+        t, reach = transmittance_and_reach(g, beta, length)
         air_sc, haze_sc = _scaled(g, m.rayleigh[i], air), _scaled(g, m.haze_scattering[i], haze)
         angular = _sum(g, g.mul(rayleigh_phase, air_sc), 0.0 if haze_sc == 0.0 else g.mul(haze_phase, haze_sc))
         transmittance.append(t)

@@ -13,6 +13,7 @@ distances, the slices are blended by hand (two fetches).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -135,16 +136,26 @@ class _Grid:
         return self.g.vlerp(rows[0], rows[1], self.weight)
 
 
-def in_scattering(g, gin, direction, length, sun, geometry, layout, images, params):
-    """The air's light per unit sun of the pixel ray ``direction`` of ``length``: the
-    aerial perspective's in-scattering where ``geometry`` is 1, plus the shadowed minus the
-    unshadowed in-scattering (the light shafts), all from the tables: the lit length and first
-    lit distance at the pixel's own depth, then the modes from the in-scattering images.
-    Twin: lut_gen.passes.epipolar_air.light_shaft_difference (unshadowed x geometry + difference).
-    Returns that and the unshadowed in-scattering alone."""
-    lit_image, integral_image, _, air_images = images
+@dataclass
+class LitTables:
+    """The lit-length tables read at a pixel's own depth (sockets): its lit length and first
+    lit distance, the integral table's value (None when not read), its grid fractions
+    (slice, sample) and the tables' reach."""
+    lit_length: object
+    first_lit: object
+    integral: object
+    across: object
+    along: object
+    t_max: object
+
+
+def read_lit_tables(g, gin, direction, length, sun, lit_image, integral_image=None) -> LitTables:
+    """What the epipolar march found along the pixel ray ``direction`` out to its ``length``,
+    from the tables lut_gen.passes.epipolar builds (twin: epipolar.look_up): whatever the air's
+    model, the tables' in-scattering (in_scattering) or the analytic one's
+    (nodes/analytic_shafts.py) applies the modes to it."""
     across, along = _grid_coordinates(g, gin, direction, sun)
-    t_max, growth, reach = g.separate(gin.outputs["Epipolar Depth"])
+    t_max, growth, _ = g.separate(gin.outputs["Epipolar Depth"])
     grid = _Grid(g, gin.outputs["Epipolar Grid"], across, along)
     z = _distance_node(g, length, t_max, growth, grid.K)
     at_z = grid.coordinates(z)                  # the lit and the integral tables share them
@@ -153,6 +164,22 @@ def in_scattering(g, gin, direction, length, sun, geometry, layout, images, para
     beyond = g.math("MAXIMUM", g.sub(length, t_max), 0.0)
     lit_length = g.add(g.math("MINIMUM", lit_length, length), beyond)
     first_lit = g.math("MINIMUM", first_lit, length)
+    integral = None if integral_image is None else grid.fetch(integral_image, z, at_z)
+    return LitTables(lit_length, first_lit, integral, across, along, t_max)
+
+
+def in_scattering(g, gin, direction, length, sun, geometry, layout, images, params):
+    """The air's light per unit sun of the pixel ray ``direction`` of ``length``: the
+    aerial perspective's in-scattering where ``geometry`` is 1, plus the shadowed minus the
+    unshadowed in-scattering (the light shafts), all from the tables: the lit length and first
+    lit distance at the pixel's own depth, then the modes from the in-scattering images.
+    Twin: lut_gen.passes.epipolar_air.light_shaft_difference (unshadowed x geometry + difference).
+    Returns that and the unshadowed in-scattering alone."""
+    lit_image, integral_image, _, air_images = images
+    lit = read_lit_tables(g, gin, direction, length, sun, lit_image,
+                          integral_image if layout.single_mode == "INTEGRATION" else None)
+    lit_length, first_lit, across, along = lit.lit_length, lit.first_lit, lit.across, lit.along
+    reach = g.separate(gin.outputs["Epipolar Depth"])[2]
     distances = {"end": length, "first": first_lit, "lit_end": g.add(first_lit, lit_length)}
 
     air_grid = _Grid(g, gin.outputs["Epipolar Air Grid"], across, along)
@@ -199,6 +226,6 @@ def in_scattering(g, gin, direction, length, sun, geometry, layout, images, para
     uses = epipolar_air.table_uses(layout.single_mode, layout.multiple_mode)
     light = phased(weights(uses["single"]), weights(uses["higher"]))
     if layout.single_mode == "INTEGRATION":
-        light = g.vmath("ADD", light, grid.fetch(integral_image, z, at_z))
+        light = g.vmath("ADD", light, lit.integral)
     # The same fetches of I(end): the unshadowed light, for the share sky pixels take.
     return light, phased({"end": 1.0}, {"end": 1.0})

@@ -46,6 +46,9 @@ class ShaftLayout:
     technique: str = "BRUTE_FORCE"
     show_cascades: bool = False     # the tint costs a shadow test per pixel: built only when shown
     clouds: bool = False            # the cloud layer shadows the air (lut_gen.clouds.shafts)
+    # The air's model: the tables' look-ups, or the analytic model's closed forms
+    # (nodes/analytic_shafts.py); switching models rebuilds the groups.
+    analytic: bool = False
 
     @property
     def epipolar(self) -> bool:
@@ -59,15 +62,17 @@ class ShaftLayout:
         return not self.epipolar or self.show_cascades
 
     @classmethod
-    def from_settings(cls, settings, technique=None):
+    def from_settings(cls, settings, technique=None, analytic: bool = False):
         """``technique`` overrides the setting (the add-on falls back to brute force where
-        epipolar sampling cannot serve the frame)."""
+        epipolar sampling cannot serve the frame); ``analytic``: the scene is wired to the
+        analytic model, which has no clouds (its sky ignores them, and so do its shafts)."""
         technique = technique or settings.scattering_technique
         # The epipolar graph does not unroll the steps: the tables' sizes are frame values.
         steps = 0 if technique == "EPIPOLAR_SAMPLING" else settings.num_integration_steps
+        clouds = bool(getattr(settings, "clouds_enabled", False)) and not analytic
         return cls(steps, settings.num_cascades, settings.single_scattering_mode, settings.multiple_scattering_mode,
                    settings.smooth_shadows, settings.best_cascade_search, int(settings.shadow_map_resolution),
-                   technique, settings.show_cascades, bool(getattr(settings, "clouds_enabled", False)))
+                   technique, settings.show_cascades, clouds, analytic)
 
     def as_key(self) -> str:
         return repr(tuple(self.__dict__.values()))
@@ -236,6 +241,44 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     image}) instead of marching; with clouds the shadow test reads ``cloud_map``."""
     shadow_test_tree = (build_shadow_test_group(layout, atlas_image, parameter_image, cloud_map)
                         if layout.reads_shadow_maps else None)
+
+    def air_light(ray):
+        g, gin = ray.g, ray.gin
+        if layout.epipolar:     # the whole image: surface x transmittance + the air's light
+            light, unshadowed = epipolar.in_scattering(g, gin, ray.direction, ray.length, ray.sun, ray.geometry,
+                                                       layout, epipolar_images, params)
+            return light, unshadowed, g.vmath("MULTIPLY", gin.outputs["Surface"], gin.outputs["Transmittance"])
+        # the aerial group's image + shadowed - unshadowed
+        lit_length, first_lit, integrated = march_lit(ray, layout, shadow_test_tree,
+                                                      build_integration_group(optical_image, params))
+        light, unshadowed = _brute_force_difference(g, ray.camera, ray.end, ray.direction, ray.sun, layout, lit_length,
+                                                    first_lit, integrated)
+        return light, unshadowed, gin.outputs["Image"]
+
+    return build_shaft_group(layout, params, shadow_test_tree, parameter_image, epipolar_images, air_light)
+
+
+@dataclass
+class PixelRay:
+    """The pixel's ray inside "OLS Light Shafts": what the air's light of either atmosphere
+    model is computed from (sockets of ``g``)."""
+    g: object
+    gin: object
+    pixel: object           # the pixel's integer coordinates (the jitter's noise)
+    camera: object
+    direction: object
+    length: object
+    end: object
+    sun: object
+    geometry: object        # 1 where the pixel shows a surface, 0 sky
+
+
+def build_shaft_group(layout: ShaftLayout, params, shadow_test_tree, parameter_image, epipolar_images, air_light):
+    """"OLS Light Shafts" around ``air_light(PixelRay) -> (light, unshadowed, base)``: the
+    interface, the pixel's ray, the sky's share of the darkening, Show Cascades and Show
+    Sampling, shared by the tables' group (build_light_shaft_groups) and the analytic model's
+    (nodes/analytic_shafts.py); ``light`` is added to ``base`` times sun strength x scattering
+    scale."""
     tree = new_group(names.LIGHT_SHAFTS_GROUP, "CompositorNodeTree")
     tree[names.LAYOUT_KEY] = layout.as_key()
     tree[names.READS_SHADOW_MAPS_KEY] = layout.reads_shadow_maps
@@ -275,22 +318,10 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
         return node
 
     scale = g.mul(g.mul(gin.outputs["Sun Strength"], gin.outputs["Scattering Scale"]), gin.outputs["Enable"])
-    if layout.epipolar:         # the whole image: surface x transmittance + the air's light
-        light, unshadowed = epipolar.in_scattering(g, gin, direction, length, sun, geometry, layout,
-                                                   epipolar_images, params)
-        base = g.vmath("MULTIPLY", gin.outputs["Surface"], gin.outputs["Transmittance"])
-    else:                       # the aerial group's image + shadowed - unshadowed
-        integration = build_integration_group(optical_image, params)
-        chunk_trees = {name: build_march_chunk_group(name, count, layout, shadow_test_tree, integration)
-                       for name, count in dict(march_chunks(layout.steps)).items()}
-        edge_tree = build_shaft_edge_group(layout, shadow_test_tree)
-        offset = jitter.step_offset(g, coordinates.outputs["Pixel"], gin.outputs["Jitter Steps"])
-        lit_length, first_lit, integrated = _march(g, gin, direction, length, sun, layout, chunk_trees, edge_tree,
-                                                   offset)
-        light, unshadowed = _brute_force_difference(g, camera, end, direction, sun, layout, lit_length, first_lit,
-                                                    integrated)
+    light, unshadowed, base = air_light(PixelRay(g, gin, coordinates.outputs["Pixel"], camera, direction, length, end,
+                                                 sun, geometry))
+    if not layout.epipolar:     # brute force, either model: Jitter Steps' 3 x 3 mean of the darkening
         light = jitter.neighbourhood_mean(g, light, length, gin.outputs["Jitter Steps"])
-        base = gin.outputs["Image"]
     scale3 = g.combine(scale, scale, scale)
     # Sky pixels take the share of the darkening their own light allows (twin and why:
     # lut_gen.passes.scattering_pass.sky_shadow_share); no negative light in any case.
@@ -313,6 +344,21 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
 
     g.links.new(g.with_alpha_of(source, result), gout.inputs["Image"])
     return tree
+
+
+def march_lit(ray: PixelRay, layout: ShaftLayout, shadow_test_tree, integration, chunk_names=None,
+              integration_inputs=()):
+    """Brute force: (lit length, first lit, integrated or None) of the pixel's ray, marched
+    through the chunk groups (named ``chunk_names``: the full chunk's and the rest's) with
+    ``integration`` as their step group, and the shaft edge refined. ``integration_inputs``:
+    ((name, socket type, default), value) of the step group's inputs beyond the march's own."""
+    specs = [spec for spec, _ in integration_inputs]
+    chunk_trees = {name: build_march_chunk_group(name, count, layout, shadow_test_tree, integration, specs)
+                   for name, count in dict(march_chunks(layout.steps, chunk_names)).items()}
+    edge_tree = build_shaft_edge_group(layout, shadow_test_tree)
+    offset = jitter.step_offset(ray.g, ray.pixel, ray.gin.outputs["Jitter Steps"])
+    return _march(ray.g, ray.gin, ray.direction, ray.length, ray.sun, layout, chunk_trees, edge_tree, offset,
+                  chunk_names, {spec[0]: value for spec, value in integration_inputs})
 
 
 def _brute_force_difference(g, camera, end, direction, sun, layout: ShaftLayout, lit_length, first_lit, integrated):
@@ -361,22 +407,27 @@ MARCH_STATE = [("Lit Length", "NodeSocketFloat", 0.0), ("First Lit", "NodeSocket
                ("Lit Previous", "NodeSocketFloat", 0.0)]
 
 
-def march_chunks(steps: int):
+def march_chunks(steps: int, chunk_names=None):
     """(group name, step count) of the chunk groups a march of ``steps`` steps is made of, in
-    order: full chunks, then the remainder's own group."""
+    order: full chunks, then the remainder's own group (``chunk_names``: the two names, the
+    tables' by default)."""
+    chunk, rest_name = chunk_names or (names.MARCH_CHUNK_GROUP, names.MARCH_REST_GROUP)
     full, rest = divmod(steps, CHUNK_STEPS)
-    return [(names.MARCH_CHUNK_GROUP, CHUNK_STEPS)] * full + ([(names.MARCH_REST_GROUP, rest)] if rest else [])
+    return [(chunk, CHUNK_STEPS)] * full + ([(rest_name, rest)] if rest else [])
 
 
-def build_march_chunk_group(name: str, count: int, layout: ShaftLayout, shadow_test_tree, integration):
+def build_march_chunk_group(name: str, count: int, layout: ShaftLayout, shadow_test_tree, integration,
+                            integration_inputs=()):
     """``count`` consecutive march steps from "First Step" on: each shadow test adds to the lit
     length (in steps) and lowers the first lit distance; with INTEGRATION each step's single
-    scattering is added, the optical depth carried from step to step."""
+    scattering is added, the optical depth carried from step to step. ``integration_inputs``:
+    (name, socket type, default) of the step group's inputs beyond the tables' own, taken as
+    the chunk's inputs and handed on (the analytic model's extinction)."""
     tree = new_group(name, "CompositorNodeTree")
     inputs = (test_inputs(layout) + MARCH_STATE
               + [("Direction", "NodeSocketVector", (0.0, 1.0, 0.0)), ("Sun", "NodeSocketVector", (0.0, 0.0, 1.0)),
                  ("Step", "NodeSocketFloat", 1.0), ("First Step", "NodeSocketFloat", 0.0),
-                 ("Offset", "NodeSocketFloat", jitter_offsets.CENTRE)])
+                 ("Offset", "NodeSocketFloat", jitter_offsets.CENTRE)] + list(integration_inputs))
     g, gin, gout = group_io(tree, inputs, MARCH_STATE)
     camera, direction, step = gin.outputs["Camera Position"], gin.outputs["Direction"], gin.outputs["Step"]
     state = {name: gin.outputs[name] for name, *_ in MARCH_STATE}
@@ -402,7 +453,8 @@ def build_march_chunk_group(name: str, count: int, layout: ShaftLayout, shadow_t
             node = g.node("CompositorNodeGroup")
             node.node_tree = integration
             for socket, value in (("Point", point), ("Direction", direction), ("Sun Direction", gin.outputs["Sun"]),
-                                  ("Lit", lit), ("Step", step), ("Optical Depth Before", state["Optical Depth"])):
+                                  ("Lit", lit), ("Step", step), ("Optical Depth Before", state["Optical Depth"]),
+                                  *((socket, gin.outputs[socket]) for socket, *_ in integration_inputs)):
                 g.feed(node.inputs[socket], value)
             state["Optical Depth"] = node.outputs["Optical Depth After"]
             state["Integrated"] = g.vmath("ADD", state["Integrated"], node.outputs["Radiance"])
@@ -455,20 +507,21 @@ def build_shaft_edge_group(layout: ShaftLayout, shadow_test_tree):
     return tree
 
 
-def _march(g, gin, direction, length, sun, layout: ShaftLayout, chunk_trees, edge_tree, offset):
+def _march(g, gin, direction, length, sun, layout: ShaftLayout, chunk_trees, edge_tree, offset, chunk_names=None,
+           integration_inputs=None):
     """Brute force: (lit length, first lit, integrated or None) from ``layout.steps`` shadow
     tests along the pixel's ray, at ``offset`` (a socket: 0.5 the step centres, or the
     pixel's jitter) within each step, chained through the chunk groups."""
     step = g.div(length, float(layout.steps))
     state = {name: default for name, _, default in MARCH_STATE}
     first = 0
-    for name, count in march_chunks(layout.steps):
+    for name, count in march_chunks(layout.steps, chunk_names):
         node = g.node("CompositorNodeGroup")
         node.node_tree = chunk_trees[name]
         for socket, *_ in test_inputs(layout):
             g.links.new(gin.outputs[socket], node.inputs[socket])
         for socket, value in (("Direction", direction), ("Sun", sun), ("Step", step), ("First Step", float(first)),
-                              ("Offset", offset), *state.items()):
+                              ("Offset", offset), *state.items(), *(integration_inputs or {}).items()):
             g.feed(node.inputs[socket], value)
         state = {name: node.outputs[name] for name, *_ in MARCH_STATE}
         first += count

@@ -97,3 +97,7 @@ EPIPOLAR_AIR_IMAGES = {"single": "OLS Epipolar Air Rayleigh", "single_mie": "OLS
 ANALYTIC_WIRED = "analytic"                       # WIRED_KEY of a scene wired to the analytic model: no tables
 ANALYTIC_MEDIA_GROUP = "OLS Analytic Media"                    # its coefficients, for the shader groups
 ANALYTIC_MEDIA_COMPOSITOR_GROUP = "OLS Analytic Media (Compositor)"
+# The analytic shafts' march: its own chunk groups (they take the ray's extinction) and step.
+ANALYTIC_INTEGRATION_GROUP = "OLS Analytic Integration Step"
+ANALYTIC_MARCH_CHUNK_GROUP = "OLS Analytic March Chunk"
+ANALYTIC_MARCH_REST_GROUP = "OLS Analytic March Rest"

@@ -8,7 +8,7 @@ import weakref
 import bpy
 import numpy as np
 
-from ....lut_gen.passes import epipolar, epipolar_air, render_detail
+from ....lut_gen.passes import analytic_shafts, epipolar, epipolar_air, render_detail
 from ... import nodes
 from ..tables import luts
 from .. import names
@@ -51,9 +51,10 @@ def _sized_images(layout, settings) -> dict:
                                                   settings.num_integration_steps)}
     if layout.single_mode == "INTEGRATION":
         sizes[names.EPIPOLAR_INTEGRAL_IMAGE] = sizes[names.EPIPOLAR_LIT_IMAGE]
-    air = epipolar_air.air_dims(settings.epipolar_slices, settings.samples_per_slice)
-    for name in names.EPIPOLAR_AIR_IMAGES.values():
-        sizes[name] = nodes.epipolar.image_size(*air)
+    if not layout.analytic:     # the analytic model's air needs no in-scattering tables
+        air = epipolar_air.air_dims(settings.epipolar_slices, settings.samples_per_slice)
+        for name in names.EPIPOLAR_AIR_IMAGES.values():
+            sizes[name] = nodes.epipolar.image_size(*air)
     return sizes
 
 
@@ -72,7 +73,7 @@ def ensure_images(layout, settings):
         images[name] = image
     sampling = bpy.data.images.get(names.EPIPOLAR_SAMPLING_IMAGE)      # any size: written at the render's each frame
     sampling = sampling or luts.write_data_image(names.EPIPOLAR_SAMPLING_IMAGE, np.zeros((1, 1, 4), dtype=np.float32))
-    air = {name: images[name] for name in names.EPIPOLAR_AIR_IMAGES.values()}
+    air = {name: images[name] for name in names.EPIPOLAR_AIR_IMAGES.values() if name in images}
     return images[names.EPIPOLAR_LIT_IMAGE], images.get(names.EPIPOLAR_INTEGRAL_IMAGE), sampling, air
 
 
@@ -129,21 +130,41 @@ def update(state, cascades, luts_object, clouds=None) -> dict:
     tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
                                    settings.best_cascade_search, settings.first_cascade_to_ray_march,
                                    luts_object, integrate, clouds)
-    lit, integral = nodes.epipolar.pack(tables)
-    luts.write_data_image(names.EPIPOLAR_LIT_IMAGE, lit)
-    if integral is not None:
-        luts.write_data_image(names.EPIPOLAR_INTEGRAL_IMAGE, integral)
+    _write_lit_tables(frame, tables, settings, camera, width, height)
     air = epipolar_air.air_frame(frame, camera)
     air_tables = _air_tables(luts_object, air, camera.position)
     for name, pixels in nodes.epipolar.pack_air(air_tables).items():
         luts.write_data_image(name, pixels)
+    values = frame.as_values()
+    values["Epipolar Depth"] = (frame.t_max, frame.growth, air.t_max)
+    values["Epipolar Air Grid"] = (air.slices, air.samples, air.steps)
+    return values
+
+
+def update_analytic(state, cascades, media) -> dict:
+    """``update`` under the analytic model (``media``: lut_gen.model.analytic.media of the scene):
+    the lit-length tables and, for INTEGRATION, their closed-form integral
+    (lut_gen.passes.analytic_shafts.build_epipolar_tables, the twin's own call); no in-scattering
+    tables, whose part the shaft group computes per pixel."""
+    width, height = state.render_size
+    frame, tables = analytic_shafts.build_epipolar_tables(media, state.camera, state.sun_direction, cascades,
+                                                          state.settings, width, height)
+    _write_lit_tables(frame, tables, state.settings, state.camera, width, height)
+    values = frame.as_values()
+    values["Epipolar Depth"] = (frame.t_max, frame.growth, frame.t_max)    # z: read by the tables' group only
+    return values
+
+
+def _write_lit_tables(frame, tables, settings, camera, width, height):
+    """The lit-length tables, the integral table (when built) and Show Sampling's overlay into
+    their images."""
+    lit, integral = nodes.epipolar.pack(tables)
+    luts.write_data_image(names.EPIPOLAR_LIT_IMAGE, lit)
+    if integral is not None:
+        luts.write_data_image(names.EPIPOLAR_INTEGRAL_IMAGE, integral)
     overlay = np.zeros((1, 1, 4), dtype=np.float32)
     if settings.show_sampling:
         dots = epipolar.sampling_overlay(frame, tables.marched, camera, width, height)
         overlay = np.zeros((height, width, 4), dtype=np.float32)
         overlay[..., 0] = dots
     luts.write_data_image(names.EPIPOLAR_SAMPLING_IMAGE, overlay)
-    values = frame.as_values()
-    values["Epipolar Depth"] = (frame.t_max, frame.growth, air.t_max)
-    values["Epipolar Air Grid"] = (air.slices, air.samples, air.steps)
-    return values

@@ -17,7 +17,8 @@ import numpy as np
 from ....lut_gen.clouds import shafts as cloud_shafts
 from ....lut_gen.clouds import veil as cloud_veil
 from ....lut_gen.passes import epipolar, frame_values, scattering_pass
-from ...settings import Sanitized
+from ....lut_gen.model import analytic
+from ...settings import Sanitized, analytic_params
 from .. import names
 from . import cloud_map
 from ..tables import luts, wired_bake
@@ -105,8 +106,11 @@ def update_frame(scene, depsgraph) -> bool:
         if node.node_tree.get(names.READS_SHADOW_MAPS_KEY, True):
             shadow_maps.write_images(cascades)
         if node.node_tree.get(names.LAYOUT_KEY, "").find("EPIPOLAR_SAMPLING") >= 0:
-            extra = epipolar_tables.update(state, cascades, wired_bake.bake_info(scene).numpy_luts(),
-                                           cloud_map.numpy_layer(scene, state.clouds))
+            if wired_bake.is_analytic(scene):       # no tables: the model's media, no clouds
+                extra = epipolar_tables.update_analytic(state, cascades, analytic.media(analytic_params(scene.ols)))
+            else:
+                extra = epipolar_tables.update(state, cascades, wired_bake.bake_info(scene).numpy_luts(),
+                                               cloud_map.numpy_layer(scene, state.clouds))
     write_frame_values(scene, state, cascades, extra)
     _state.update(key=key, geometry_changed=False)
     return True

@@ -184,8 +184,8 @@ def link_light_shafts(scene):
     if aerial is None or tone is None or layers is None:
         return
     if group is None:
-        # A scene set up under the analytic model has no shaft groups: the frame values still
-        # feed the aerial perspective its camera and sun.
+        # No shaft groups (a scene set up under the analytic model before it had shafts): the
+        # frame values still feed the aerial perspective its camera and sun.
         _link_frame_values(tree, layers, (aerial,))
         return
     shafts = tree.nodes.get(names.SHAFTS_NODE)
@@ -409,9 +409,7 @@ def sync_settings(scene):
                          "Lighting Only": float(settings.lighting_only), "Scattering Scale": settings.scattering_scale})
     shafts = tree.nodes.get(names.SHAFTS_NODE)
     if shafts is not None and shafts.node_tree is not None:
-        # The analytic model has no light shafts yet: a shaft group left from the tables stays muted.
-        active = (settings.enable_light_scattering and settings.enable_light_shafts
-                  and scene.get(names.WIRED_KEY) != names.ANALYTIC_WIRED)
+        active = settings.enable_light_scattering and settings.enable_light_shafts
         if shafts.mute == active:       # a muted group passes its image through and costs nothing
             shafts.mute = not active
         _set_inputs(shafts, {"Enable": float(settings.enable_light_scattering),

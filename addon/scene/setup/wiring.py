@@ -113,10 +113,17 @@ def _build_for_model(scene, bake_dir):
     return build_groups(bake_dir, scene.render.engine)
 
 
-def build_light_shafts(scene, optical_image, params):
-    """(Re)build the light-shaft groups for the scene's structural settings (ShaftLayout)."""
+def shaft_layout(settings, analytic_model: bool):
+    """The ShaftLayout of ``settings`` (sanitized) for the tables or the analytic model."""
+    return nodes.ShaftLayout.from_settings(settings, epipolar_tables.technique(settings), analytic_model)
+
+
+def build_light_shafts(scene, optical_image, params, analytic_model: bool = False):
+    """(Re)build the light-shaft groups for the scene's structural settings (ShaftLayout): the
+    tables' (``optical_image`` their optical-depth image) or, ``analytic_model``, the analytic
+    model's (``params`` its media, no image)."""
     settings = Sanitized(scene.ols)
-    layout = nodes.ShaftLayout.from_settings(settings, epipolar_tables.technique(settings))
+    layout = shaft_layout(settings, analytic_model)
     atlas, table = None, None
     if layout.reads_shadow_maps:
         atlas, table = shadow_maps.ensure_images(int(settings.shadow_map_resolution), settings.num_cascades)
@@ -127,8 +134,11 @@ def build_light_shafts(scene, optical_image, params):
     else:
         shadow_maps.release_buffer()
     cloud_map = clouds.ensure_map_image(clouds.seed_of(scene)) if layout.clouds else None
-    nodes.build_light_shaft_groups(optical_image, atlas, table, params, layout,
-                                   epipolar_tables.ensure_images(layout, settings), cloud_map)
+    images = epipolar_tables.ensure_images(layout, settings)
+    if layout.analytic:
+        nodes.build_analytic_light_shaft_groups(atlas, table, params, layout, images)
+    else:
+        nodes.build_light_shaft_groups(optical_image, atlas, table, params, layout, images, cloud_map)
     nodes.builder.lay_out_groups()
     frame_update.forget()           # new groups may read new (empty) images: write them again
 
@@ -139,14 +149,15 @@ def match_light_shaft_layout(scene) -> bool:
     is muted and reads nothing, and a rebuild costs about a second, so it waits until they are
     turned on again."""
     group = bpy.data.node_groups.get(names.LIGHT_SHAFTS_GROUP)
-    info = wired_bake.bake_info(scene)
-    if group is None or info is None:
+    analytic_model = wired_bake.is_analytic(scene)
+    info = None if analytic_model else wired_bake.bake_info(scene)
+    if group is None or (info is None and not analytic_model):
         return False
     settings = Sanitized(scene.ols)
     if not (settings.enable_light_scattering and settings.enable_light_shafts):
         shadow_maps.release_buffer()
         return False
-    layout = nodes.ShaftLayout.from_settings(settings, epipolar_tables.technique(settings))
+    layout = shaft_layout(settings, analytic_model)
     if (group.get(names.LAYOUT_KEY) == layout.as_key()
             and (not layout.reads_shadow_maps
                  or shadow_maps.images_intact(bpy.data.node_groups.get(names.SHADOW_TEST_GROUP)))):
@@ -155,7 +166,10 @@ def match_light_shaft_layout(scene) -> bool:
         if epipolar_tables.resize_images(layout, settings):   # new slices, samples or steps
             frame_update.forget()
             return False
-    build_light_shafts(scene, bpy.data.images[luts.image_name("optical_depth", info.key)], info.params)
+    if analytic_model:
+        build_light_shafts(scene, None, analytic_params(scene.ols), True)
+    else:
+        build_light_shafts(scene, bpy.data.images[luts.image_name("optical_depth", info.key)], info.params)
     compositor.link_light_shafts(scene)
     return True
 
@@ -328,8 +342,7 @@ def _wire_checked(scene, bake_dir, images, params, terrain_objects, sun, resolut
     for obj in terrain_objects:
         wire_terrain(obj, sun)
     clouds.wire(scene, sun)
-    if images is not None:          # the analytic model has no light shafts yet
-        build_light_shafts(scene, images["optical_depth"], params)
+    build_light_shafts(scene, None if images is None else images["optical_depth"], params, images is None)
     compositor.wire_compositor(scene)
     scene[names.WIRED_KEY] = (names.ANALYTIC_WIRED if bake_dir is None
                               else lut_gen.store.exr_io.verify_bake(bake_dir))     # verified by build_groups: cached
@@ -379,19 +392,31 @@ def use_model(scene, bake_dir=None):
     """Switch a wired scene between the models: to the analytic groups (``bake_dir`` None) or to
     the tables in ``bake_dir`` (the light-shaft groups built when the scene had none)."""
     if bake_dir is None:
-        build_analytic_groups(scene)
+        params = build_analytic_groups(scene)
         scene[names.WIRED_KEY] = names.ANALYTIC_WIRED
         if names.PREVIEW_KEY in scene:
             del scene[names.PREVIEW_KEY]
+        _match_model_shafts(scene, None, params)
         refresh(scene, force=True)
         return
     images, params = build_groups(bake_dir, scene.render.engine)
     scene[names.WIRED_KEY] = lut_gen.store.exr_io.verify_bake(bake_dir)
-    if bpy.data.node_groups.get(names.LIGHT_SHAFTS_GROUP) is None:
-        build_light_shafts(scene, images["optical_depth"], params)
-        compositor.link_light_shafts(scene)
+    _match_model_shafts(scene, images["optical_depth"], params)
     refresh(scene, force=True)
     luts.release_unused_images()
+
+
+def _match_model_shafts(scene, optical_image, params):
+    """After a switch of model (or a media slider under the analytic model): the light-shaft
+    groups of the model the scene is wired to. The shafts read the media through the media
+    group, so a slider rebuilds nothing here; a switch rebuilds them (their air differs), even
+    while the shafts are off, so no group of the other model is left in the compositor."""
+    group = bpy.data.node_groups.get(names.LIGHT_SHAFTS_GROUP)
+    layout = shaft_layout(Sanitized(scene.ols), optical_image is None)
+    if group is not None and group.get(names.LAYOUT_KEY) == layout.as_key():
+        return
+    build_light_shafts(scene, optical_image, params, optical_image is None)
+    compositor.link_light_shafts(scene)
 
 
 def forget_caches():
