@@ -83,8 +83,15 @@ def test_set_up_with_the_analytic_model_needs_no_tables(addon_package, tmp_path,
     aerial = scene.compositing_node_group.nodes["OLS Aerial Perspective"]
     for name in ("Camera Position", "Sun Direction", "Sun Strength"):     # camera and sun per frame
         assert aerial.inputs[name].links[0].from_node.name == "OLS Frame Values", name
+    shafts = scene.compositing_node_group.nodes["OLS Light Shafts"]      # the shafts are on, analytic
+    assert scene.ols.enable_light_shafts and not shafts.mute and shafts.node_tree["ols_layout"].endswith("True)")
     clear = render_rgb(scene, tmp_path / "clear.exr", composite=True)
     assert np.isfinite(clear).all() and clear.mean() > 0.02
+    other = "BRUTE_FORCE" if scene.ols.scattering_technique == "EPIPOLAR_SAMPLING" else "EPIPOLAR_SAMPLING"
+    scene.ols.scattering_technique = other                  # the other technique: no tables either
+    marched = render_rgb(scene, tmp_path / "marched.exr", composite=True)
+    assert shafts.node_tree["ols_layout"].find(other) >= 0
+    assert np.isfinite(marched).all() and np.abs(marched - clear).mean() < 0.05 * clear.mean()
 
     started = time.perf_counter()
     scene.ols.aerosol_density = 4.0                      # rebuilt now, no bake started
@@ -157,8 +164,9 @@ def test_there_are_no_tables_to_pack_under_the_analytic_model(addon_package, tmp
 
 def test_a_scene_set_up_analytic_gets_the_light_shafts_when_switched_to_the_tables(addon_package, tmp_path,
                                                                                    monkeypatch):
-    """Set up under the analytic model (no shaft groups), then switched to cached tables: the
-    shaft groups are built and linked, and the frame renders as a scene set up on the tables."""
+    """Set up under the analytic model (its own shaft groups), then switched to cached tables:
+    the tables' shaft groups are built and linked in their place, and the frame renders as a
+    scene set up on the tables."""
     monkeypatch.setenv("OLS_CACHE_DIR", str(tmp_path / "cache"))
     baking = extension_module("addon.baking")
     baking.bake_if_needed(addon_package.lut_gen.AtmosphereParams(), "draft")
@@ -172,11 +180,14 @@ def test_a_scene_set_up_analytic_gets_the_light_shafts_when_switched_to_the_tabl
         bpy.data.node_groups.remove(bpy.data.node_groups[name])
     scene.ols.atmosphere_model = "ANALYTIC"
     assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
-    assert "OLS Light Shafts" not in bpy.data.node_groups
+    assert bpy.data.node_groups["OLS Light Shafts"]["ols_layout"].endswith("True)")        # analytic
     _refuse_baking(monkeypatch)
     scene.ols.atmosphere_model = "PRECOMPUTED"
     shafts = scene.compositing_node_group.nodes.get("OLS Light Shafts")
     assert shafts is not None and not shafts.mute and shafts.inputs["Image"].is_linked
+    assert shafts.node_tree["ols_layout"].endswith("False)")                              # the tables'
+    assert "OLS Analytic March Chunk" not in {n.node_tree.name for n in shafts.node_tree.nodes
+                                              if n.type == "GROUP" and n.node_tree}
     _small(scene)
     switched = render_rgb(scene, tmp_path / "switched.exr", composite=True)
     np.testing.assert_allclose(switched, tables, rtol=0, atol=1e-4)
