@@ -424,7 +424,7 @@ class OLSSettings(bpy.types.PropertyGroup):
              "The baked tables: multiple scattering, the Earth's curvature, twilight and light shafts"),
             ("ANALYTIC", "Analytic (Hoffman-Preetham)",
              "Hoffman & Preetham's constant-density model: single scattering in closed form, no bake, no "
-             "table file, updates at once; a preview, with no twilight and no light shafts"),
+             "table file, updates at once; light shafts in closed form; a preview, with no twilight"),
         ],
         default="PRECOMPUTED",
         update=_switch_model,

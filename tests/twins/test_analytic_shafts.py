@@ -102,9 +102,21 @@ def test_analytic_shafts_match_the_twin_in_every_mode(addon_package, tmp_path, m
         tails[single, multiple] = float(np.percentile(error, 99))
         seen_modes[single, multiple] = seen
     print(technique, "analytic shafts, median relative error per mode:", errors, "p99:", tails)
-    # The issue's bar is a 2% median; float32 closed forms against float64 do far better.
-    assert max(errors.values()) <= 0.02, errors
-    assert max(tails.values()) <= 0.05, tails
+    # Measured: medians 4e-8 to 1.4e-6, p99 up to 1.4e-4 (float32 closed forms against float64).
+    # The issue's bar is a 2% median; held as tight as the tables' pass (docs/accuracy.md): a
+    # loose bound would let a wrong density or transmittance through.
+    assert max(errors.values()) <= 1e-4, errors
+    assert max(tails.values()) <= 1e-3, tails
+    if technique == "EPIPOLAR_SAMPLING":
+        # Epipolar against brute force at the same steps, shadow maps and modes, in display values.
+        # Measured 33 dB (LUT; 31 dB INTEGRATION), at 96 x 54 and 160 x 90 alike, where the tables'
+        # pass reaches 40: the difference is the lit-length tables' (shared with the tables),
+        # interpolated across the far slopes in the ridge's shadow (lit 8% of their ray where
+        # the march finds 0). The analytic model has no multiple scattering to fill that shadow,
+        # so the dark slopes (0.008 against 0.26 of air light) show what the tables' pass hides.
+        psnr = extension_module("lut_gen.verify.display").display_psnr(expected, twin(scattering_technique="BRUTE_FORCE"))
+        print("analytic epipolar vs brute force PSNR", psnr)
+        assert psnr >= 30.0
     # The model has no higher orders: the multiple-scattering modes change nothing.
     for single in ("NONE", "INTEGRATION", "LUT"):
         same = [seen for (s, _), seen in seen_modes.items() if s == single]
