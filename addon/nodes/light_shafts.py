@@ -70,7 +70,10 @@ class ShaftLayout:
         # The epipolar graph does not unroll the steps: the tables' sizes are frame values.
         steps = 0 if technique == "EPIPOLAR_SAMPLING" else settings.num_integration_steps
         clouds = bool(getattr(settings, "clouds_enabled", False)) and not analytic
-        return cls(steps, settings.num_cascades, settings.single_scattering_mode, settings.multiple_scattering_mode,
+        # The analytic model has no higher orders: its three multiple-scattering modes give the
+        # same light (lut_gen.passes.analytic_shafts), so a change of that mode rebuilds nothing.
+        multiple = "UNOCCLUDED" if analytic else settings.multiple_scattering_mode
+        return cls(steps, settings.num_cascades, settings.single_scattering_mode, multiple,
                    settings.smooth_shadows, settings.best_cascade_search, int(settings.shadow_map_resolution),
                    technique, settings.show_cascades, clouds, analytic)
 

@@ -139,3 +139,17 @@ def test_the_march_is_the_tables_march():
     marched = aerial.march(CAMERA, end, is_lit, 32)
     assert math.isclose(float(marched.lit_length), 0.6 * np.linalg.norm(end - CAMERA), rel_tol=2e-3)
     assert math.isclose(float(marched.first_lit), 0.4 * np.linalg.norm(end - CAMERA), rel_tol=2e-3)
+
+
+def test_the_multiple_scattering_modes_change_nothing_under_the_model(media):
+    """The model has single scattering only: through shadows, every single-scattering mode gives
+    the same light whatever the multiple-scattering mode (the tables' OCCLUDED and UNOCCLUDED
+    differ by their higher orders, here 0), and the modes differ from each other."""
+    end = _ends()[0]
+    is_lit, _ = _stripes(end)
+    light = {(s, m): analytic_shafts.light_shafts(media, CAMERA, end, SUN, is_lit, 40, s, m) for s, m in MODES}
+    for single in ("NONE", "INTEGRATION", "LUT"):
+        for multiple in ("OCCLUDED", "UNOCCLUDED"):
+            np.testing.assert_array_equal(light[single, multiple], light[single, "NONE"])
+    assert light["LUT", "NONE"].sum() > light["NONE", "NONE"].sum() == 0.0
+    assert not np.allclose(light["LUT", "NONE"], light["INTEGRATION", "NONE"], rtol=0.01)
