@@ -109,7 +109,7 @@ def analytic_can_stand_in(scene) -> bool:
 def show_analytic_stand_in(scene):
     """The analytic model's groups on a wired scene at once, marked as a preview: the running
     bake's draft and then its full tables replace them (swap_in)."""
-    wiring.use_model(scene, None)
+    wiring.use_model(scene, None, shafts=False)        # the tables' shafts wait, muted, for the draft
     mark_preview(scene, True)
 
 

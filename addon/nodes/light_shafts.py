@@ -261,6 +261,12 @@ def build_light_shaft_groups(optical_image, atlas_image, parameter_image, params
     return build_shaft_group(layout, params, shadow_test_tree, parameter_image, epipolar_images, air_light)
 
 
+def shaft_model(analytic: bool) -> str:
+    """The SHAFT_MODEL_KEY value of a shaft group built for the tables or the analytic model:
+    a group of the other model must not run (its air would not match the aerial group's)."""
+    return "analytic" if analytic else "tables"
+
+
 @dataclass
 class PixelRay:
     """The pixel's ray inside "OLS Light Shafts": what the air's light of either atmosphere
@@ -284,6 +290,7 @@ def build_shaft_group(layout: ShaftLayout, params, shadow_test_tree, parameter_i
     scale."""
     tree = new_group(names.LIGHT_SHAFTS_GROUP, "CompositorNodeTree")
     tree[names.LAYOUT_KEY] = layout.as_key()
+    tree[names.SHAFT_MODEL_KEY] = shaft_model(layout.analytic)
     tree[names.READS_SHADOW_MAPS_KEY] = layout.reads_shadow_maps
     inputs = MAIN_INPUTS + test_inputs(layout) + (epipolar.INPUTS if layout.epipolar else MARCH_INPUTS)
     g, gin, gout = group_io(tree, inputs, [("Image", "NodeSocketColor", None)])

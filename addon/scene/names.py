@@ -26,6 +26,7 @@ SOURCE = "ols_source"                             # on our compositor node: the 
 SOURCE_OUTPUT = "ols_source_output"               # ... and that node's output index
 ATMOSPHERE_TARGETS_KEY = "ols_atmosphere_targets"  # on our aerial node: the inputs the render's image fed
 LAYOUT_KEY = "ols_layout"                         # on the light-shaft group: the layout it was built for
+SHAFT_MODEL_KEY = "ols_shaft_model"               # ... and the atmosphere model ("tables" or "analytic")
 READS_SHADOW_MAPS_KEY = "ols_reads_shadow_maps"   # on the light-shaft group: whether it samples the atlas
 ROWS_KEY = "ols_rows"                             # on the frame-values group: the rows it unpacks
 FILTERING_KEY = "ols_filtering"                   # on the look-up group: the engine's filtering

@@ -238,6 +238,8 @@ def scattering_pass(m: analytic.AnalyticMedia, image, position, depth, camera: C
         difference = light_shafts(m, camera.position, end, sun, is_lit, settings.num_integration_steps,
                                   settings.single_scattering_mode, settings.multiple_scattering_mode,
                                   offsets) - unshadowed
+        if settings.jitter_steps:       # the darkening's 3 x 3 mean, as the tables' pass takes it
+            difference = jitter.neighbourhood_mean(difference, ray.length)
     share = tables_pass.sky_shadow_share(image, unshadowed * scale, geometry)
     out = np.maximum(np.where(geometry[..., None], surface + unshadowed * scale, image) + difference * scale * share,
                      0.0)

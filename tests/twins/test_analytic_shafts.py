@@ -18,7 +18,7 @@ bpy = pytest.importorskip("bpy")
 WIDTH, HEIGHT = 96, 54
 # Each single-scattering mode with another multiple-scattering mode: the model has no higher
 # orders, so the three multiple-scattering modes give the same light and build the same group
-# (asserted below; the numpy twin runs all nine in tests/numpy_only/test_analytic_shafts.py).
+# (asserted below; the numpy twin runs all nine in tests/numpy_only/test_analytic_shaft_closed_forms.py).
 MODES = [("NONE", "NONE"), ("INTEGRATION", "OCCLUDED"), ("LUT", "UNOCCLUDED")]
 
 

@@ -409,7 +409,11 @@ def sync_settings(scene):
                          "Lighting Only": float(settings.lighting_only), "Scattering Scale": settings.scattering_scale})
     shafts = tree.nodes.get(names.SHAFTS_NODE)
     if shafts is not None and shafts.node_tree is not None:
-        active = settings.enable_light_scattering and settings.enable_light_shafts
+        # A group built for the other model (the analytic stand-in while tables bake keeps the
+        # tables' one, baking.show_analytic_stand_in) stays muted: its air is not the aerial group's.
+        model = "analytic" if scene.get(names.WIRED_KEY) == names.ANALYTIC_WIRED else "tables"
+        active = (settings.enable_light_scattering and settings.enable_light_shafts
+                  and shafts.node_tree.get(names.SHAFT_MODEL_KEY, "tables") == model)
         if shafts.mute == active:       # a muted group passes its image through and costs nothing
             shafts.mute = not active
         _set_inputs(shafts, {"Enable": float(settings.enable_light_scattering),

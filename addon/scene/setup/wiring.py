@@ -157,6 +157,10 @@ def match_light_shaft_layout(scene) -> bool:
     if not (settings.enable_light_scattering and settings.enable_light_shafts):
         shadow_maps.release_buffer()
         return False
+    if analytic_model and scene.get(names.PREVIEW_KEY):
+        # The analytic stand-in for tables still baking: the tables' shafts wait (muted) for
+        # their draft; building the analytic ones would cost 1-4 s of a preview meant to be at once.
+        return False
     layout = shaft_layout(settings, analytic_model)
     if (group.get(names.LAYOUT_KEY) == layout.as_key()
             and (not layout.reads_shadow_maps
@@ -388,15 +392,18 @@ def _refresh_lamp_and_groups(scene, sun, origin_transmittance):
     clouds.repair(scene)
 
 
-def use_model(scene, bake_dir=None):
+def use_model(scene, bake_dir=None, shafts: bool = True):
     """Switch a wired scene between the models: to the analytic groups (``bake_dir`` None) or to
-    the tables in ``bake_dir`` (the light-shaft groups built when the scene had none)."""
+    the tables in ``bake_dir``, with the light-shaft groups of that model. ``shafts`` False (the
+    analytic stand-in while tables bake, a few seconds): the shaft groups are left as they are,
+    and a group of the other model stays muted (compositor.sync_settings)."""
     if bake_dir is None:
         params = build_analytic_groups(scene)
         scene[names.WIRED_KEY] = names.ANALYTIC_WIRED
         if names.PREVIEW_KEY in scene:
             del scene[names.PREVIEW_KEY]
-        _match_model_shafts(scene, None, params)
+        if shafts:
+            _match_model_shafts(scene, None, params)
         refresh(scene, force=True)
         return
     images, params = build_groups(bake_dir, scene.render.engine)
