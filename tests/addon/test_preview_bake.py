@@ -210,6 +210,13 @@ def test_the_analytic_model_stands_in_only_where_it_shows_what_the_scene_asks_fo
     sun.rotation_euler = rotation
     bpy.context.view_layer.update()
     key = scene[names.WIRED_KEY]
+    shafts = scene.compositing_node_group.nodes[names.SHAFTS_NODE]
+    layout = shafts.node_tree[names.LAYOUT_KEY]
     baking.show_analytic_stand_in(scene)
     assert baking.preview_name(scene) == "analytic" and baking.showing_preview(scene)
+    # The stand-in lasts until the draft: the tables' shafts are kept, muted (their air is not the
+    # analytic aerial group's), and not rebuilt as the analytic ones, not even by a scene update.
+    extension_module("addon.scene.setup.wiring").match_light_shaft_layout(scene)
+    assert shafts.mute and shafts.node_tree[names.LAYOUT_KEY] == layout
     assert baking.settle(scene) and scene[names.WIRED_KEY] == key and not baking.showing_preview(scene)
+    assert not shafts.mute and shafts.node_tree[names.LAYOUT_KEY] == layout
