@@ -157,8 +157,8 @@ def higher_order_dims(dims):
 
 
 # Orders from this one on (only fog bakes get there: the clear sky stops at CLEAR_SKY_ORDERS)
-# are computed on late_order_dims, a grid halved once more. By then the light has scattered
-# four times and is smooth along every axis, and the fog's ten to twenty orders after it took
+# are computed on late_order_dims, the order grid with half its view nodes. By then the light
+# has scattered four times and is smoother, and the fog's ten to twenty orders after it took
 # three quarters of a morning-fog bake.
 LATE_ORDERS_FROM = 5
 
@@ -574,9 +574,9 @@ def _scattered_radiance(params, dims_j, prev_n, mu, kernels, n_az, prev_mie=None
 class OrderGeometry:
     """What the view-ray integral of every order (eq. 2) needs that does not change from one
     order to the next, per work item of one grid, found by the first order and kept: the nodes
-    along each view ray with their weights (media's scattering coefficients included), where
-    each node falls on the grid's height and view-zenith axes, and where its sun falls on the
-    sun-zenith axis for every sun node and sun-view angle."""
+    along each view ray with their weights (media's scattering coefficients included) and where
+    each node falls on the grid's height and view-zenith axes (``item``). Where its sun falls on
+    the sun-zenith axis is found again each order (``sun_rows``)."""
 
     def __init__(self, params: AtmosphereParams, media: Media, dims_j):
         self.params, self.media, self.dims = params, media, dims_j
@@ -612,17 +612,24 @@ class OrderGeometry:
         corners = [(ih + dh, ia + da, (w_h * w_a)[..., None, None, None].astype(np.float32))
                    for dh, w_h in ((0, 1 - wh), (1, wh)) for da, w_a in ((0, 1 - wa), (1, wa))]
         ct = par.clamp_sun_view(cos_view_i[:, None, None], cos_sun[None, :, None], cos_sun_view[None, None, :])
-        cos_node = _node_cos_sun(r, nodes, cos_sun, ct)                                      # (a, K, s, t)
-        i_s, w_s = axis_weights(par.sun_zenith_to_x(cos_node, n_s), n_s)
         base = ((np.arange(n_rays)[:, None, None, None] * HIGHER_NODES + np.arange(HIGHER_NODES)[None, :, None, None]) * n_t
                 + np.arange(n_t)[None, None, None, :]) * n_s                                  # (a, K, 1, t)
-        below = (base + i_s).astype(np.intp)
         # Ray weights times the media's scattering coefficients, media-major like J~: (a, K, media x C).
         weights = [media.rayleigh * nodes.weight_rayleigh, media.mie * nodes.weight_mie]
         if nodes.weight_fog is not None:
             weights.append(media.fog * nodes.weight_fog)
         ray_weights = np.concatenate(weights, axis=-1).astype(np.float32)
-        return i, rays, corners, below, w_s[..., None], ray_weights, (1.0 / rayleigh_phase(ct))[..., None].astype(np.float32)
+        return i, rays, corners, (r, nodes, ct, base), ray_weights, (1.0 / rayleigh_phase(ct))[..., None].astype(np.float32)
+
+    def sun_rows(self, sun):
+        """(slab rows below each node's sun, weight of the row above): (a, K, s, t) each. Found
+        again by every order: kept, they were 12 bytes per node, sun and sun-view angle (150 MB
+        at the default resolution), for 4% of an order's time."""
+        r, nodes, ct, base = sun
+        n_s = self.dims[2]
+        cos_node = _node_cos_sun(r, nodes, self.axes[3], ct)                                   # (a, K, s, t)
+        i_s, w_s = axis_weights(par.sun_zenith_to_x(cos_node, n_s), n_s)
+        return base + i_s, w_s[..., None]
 
 
 def _integrate_order(params, media: Media, dims_j, j_table, progress: Progress, stage: str,
@@ -636,7 +643,8 @@ def _integrate_order(params, media: Media, dims_j, j_table, progress: Progress, 
     out = np.empty((n_h, n_a, n_s, n_t, channels), dtype=np.float32)
 
     def fill(task):
-        i, rays, corners, below, w_s, ray_weights, inverse_phase = geometry.item(task)
+        i, rays, corners, sun, ray_weights, inverse_phase = geometry.item(task)
+        below, w_s = geometry.sun_rows(sun)
         # Slab of J~ at each node's (height, view zenith), sun-view major: (a, K, t, s, media x C).
         slab = sum(w * j_table[ih, ia].transpose(0, 1, 3, 2, 4) for ih, ia, w in corners)
         # Blended geometrically along the sun zenith, from the slab's logs (one per entry, not
