@@ -38,7 +38,6 @@ geometry's values, errors and standard errors.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,6 +46,7 @@ import pytest
 from lut_gen import AtmosphereParams
 from lut_gen.model import spectrum
 from lut_gen.verify.monte_carlo import radiance_by_order
+from mc_compare import deviation, fmt, order_sum, relative_error, relative_se, sees_ground
 from rays import ray_by_elevation as ray
 
 pytestmark = pytest.mark.slow
@@ -125,18 +125,6 @@ class SpectralMC:
     by_order: np.ndarray     # (ORDERS, 3) atmosphere orders
 
 
-def _order_sum(values, cov, start, stop):
-    """Sum of orders [start, stop) of (orders, C) values and its standard error (C,)."""
-    sl = slice(start, stop)
-    return values[sl].sum(axis=0), np.sqrt(np.maximum(cov[sl, sl].sum(axis=(0, 1)), 0.0))
-
-
-def sees_ground(params, geometry) -> bool:
-    height, cos_view = geometry[0], geometry[1]
-    r = params.earth_radius + height
-    return cos_view < -math.sqrt(max(1.0 - (params.earth_radius / r) ** 2, 0.0))
-
-
 def spectral_monte_carlo(params, geometry, paths=PATHS, seed=0, wavelengths_nm=SPECTRAL_NODES_NM) -> SpectralMC:
     """``radiance_by_order`` per wavelength of spectral ``params`` (interleaved triples, one seed
     each), converted with ``spectrum.rgb_weights``; errors as in the module docstring."""
@@ -157,18 +145,10 @@ def spectral_monte_carlo(params, geometry, paths=PATHS, seed=0, wavelengths_nm=S
                 ("higher", result.atmosphere, result.atmosphere_cov, 1, ORDERS),
                 ("ground", result.ground, result.ground_cov, 0, GROUND_ORDERS),
                 ("ground_4", result.ground, result.ground_cov, 0, 4)):
-            parts[key][:, idx] = _order_sum(values, cov, start, stop)
+            parts[key][:, idx] = order_sum(values, cov, start, stop)
         by_order[:, idx] = result.atmosphere[:ORDERS]
     rgb = {key: (weights @ v, np.sqrt((weights ** 2) @ se ** 2)) for key, (v, se) in parts.items()}
     return SpectralMC(*rgb["total"], *rgb["higher"], *rgb["ground"], rgb["ground_4"][0], by_order @ weights.T)
-
-
-def relative_error(got, want):
-    return float(np.linalg.norm(np.asarray(got, np.float64) - want) / np.linalg.norm(want))
-
-
-def relative_se(se, want):
-    return float(np.linalg.norm(se) / np.linalg.norm(want))
 
 
 @pytest.fixture(scope="module")
@@ -202,27 +182,19 @@ def compare(luts, geometries, first_seed):
     return rows
 
 
-def _fmt(v):
-    return "(" + ", ".join(f"{x:.4e}" for x in v) + ")"
-
-
-def _dev(got, want):
-    return "table/mc-1 (" + ", ".join(f"{g / w - 1.0:+6.1%}" for g, w in zip(got, want)) + ")"
-
-
 def _print_table(rows):
     print()
     for name, row in rows.items():
         mc = row["mc"]
         print(f"{name}")
-        print(f"  total   table {_fmt(row['total'])}  mc {_fmt(mc.total)}  "
-              f"err {row['total_err']:6.2%}  se {relative_se(mc.total_se, mc.total):5.2%}  {_dev(row['total'], mc.total)}")
-        print(f"  higher  table {_fmt(row['higher'])}  mc {_fmt(mc.higher)}  "
-              f"err {row['higher_err']:6.2%}  se {relative_se(mc.higher_se, mc.higher):5.2%}  {_dev(row['higher'], mc.higher)}")
+        print(f"  total   table {fmt(row['total'])}  mc {fmt(mc.total)}  "
+              f"err {row['total_err']:6.2%}  se {relative_se(mc.total_se, mc.total):5.2%}  {deviation(row['total'], mc.total)}")
+        print(f"  higher  table {fmt(row['higher'])}  mc {fmt(mc.higher)}  "
+              f"err {row['higher_err']:6.2%}  se {relative_se(mc.higher_se, mc.higher):5.2%}  {deviation(row['higher'], mc.higher)}")
         if "ground_err" in row:
-            print(f"  ground  table {_fmt(row['ground'])}  mc {_fmt(mc.ground)}  "
+            print(f"  ground  table {fmt(row['ground'])}  mc {fmt(mc.ground)}  "
                   f"err {row['ground_err']:6.2%}  se {relative_se(mc.ground_se, mc.ground):5.2%}  "
-                  f"{_dev(row['ground'], mc.ground)}  (vs mc orders 1-4: {relative_error(row['ground'], mc.ground_4):6.2%})")
+                  f"{deviation(row['ground'], mc.ground)}  (vs mc orders 1-4: {relative_error(row['ground'], mc.ground_4):6.2%})")
     total = [r["total_err"] for r in rows.values()]
     higher = [r["higher_err"] for r in rows.values()]
     ground = [r["ground_err"] for r in rows.values() if "ground_err" in r]
