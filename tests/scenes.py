@@ -16,6 +16,23 @@ bpy = pytest.importorskip("bpy")
 RAMP_WIDTH, RAMP_HEIGHT = 64, 4
 
 
+def refuse_tables(monkeypatch, tmp_path):
+    """An empty, read-only cache directory (OLS_CACHE_DIR) and every way to the tables refused:
+    what a scene under the analytic model must render with. Returns the directory."""
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    cache.chmod(0o555)
+    monkeypatch.setenv("OLS_CACHE_DIR", str(cache))
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the analytic model touched the tables")
+    monkeypatch.setattr(extension_module("lut_gen.store.cache"), "bake", refuse)
+    monkeypatch.setattr(extension_module("addon.scene.tables.luts"), "load_images", refuse)
+    monkeypatch.setattr(extension_module("addon.baking"), "bake_if_needed", refuse)
+    monkeypatch.setattr(extension_module("lut_gen.store.exr_io"), "read_header_params", refuse)
+    return cache
+
+
 def hdr_ramp():
     """Luminance from 1e-3 to 1e2 left to right; rows of different chroma."""
     lum = np.logspace(-3, 2, RAMP_WIDTH)

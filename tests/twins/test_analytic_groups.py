@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from render_util import empty_scene, panorama_camera, panorama_directions, render_rgb, save_png, world_of_group
-from scenes import compositor_output, depth_image, sample_scene
+from scenes import compositor_output, depth_image, refuse_tables, sample_scene
 from extension import extension_module
 
 bpy = pytest.importorskip("bpy")
@@ -118,25 +118,10 @@ def _add_plane(name, size, location, rotation=(0.0, 0.0, 0.0)):
     return obj
 
 
-def _no_tables(monkeypatch, tmp_path):
-    """An empty, read-only cache directory, and every way to the tables refused."""
-    cache = tmp_path / "cache"
-    cache.mkdir()
-    cache.chmod(0o555)
-    monkeypatch.setenv("OLS_CACHE_DIR", str(cache))
-
-    def refuse(*args, **kwargs):
-        raise AssertionError("the analytic model touched the tables")
-    monkeypatch.setattr(extension_module("addon.scene.tables.luts"), "load_images", refuse)
-    monkeypatch.setattr(extension_module("addon.baking"), "bake_if_needed", refuse)
-    monkeypatch.setattr(extension_module("lut_gen.store.exr_io"), "read_header_params", refuse)
-    return cache
-
-
 def test_analytic_terrain_matches_its_twin_with_no_tables(addon_package, tmp_path, monkeypatch):
     """Wired by wire_scene under the analytic model, with an empty read-only cache: the terrain
     against analytic.terrain_radiance, and no table file read or written."""
-    cache = _no_tables(monkeypatch, tmp_path)
+    cache = refuse_tables(monkeypatch, tmp_path)
     scene = empty_scene(width=96, height=48, samples=32)
     flat = _add_plane("flat", 200.0, (-150.0, 0.0, 0.0))
     tilted = _add_plane("tilted", 200.0, (150.0, 0.0, 80.0), rotation=(math.radians(-40.0), 0.0, 0.0))

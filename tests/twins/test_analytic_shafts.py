@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from render_util import render_rgb, save_png
-from scenes import render_passes, sample_scene
+from scenes import refuse_tables, render_passes, sample_scene
 from extension import extension_module
 
 bpy = pytest.importorskip("bpy")
@@ -26,15 +26,7 @@ def analytic_scene(pkg, tmp_path, monkeypatch, steps=12):
     """The sample with the sun 5 degrees up straight ahead, behind the ridge, set up under the
     analytic model with an empty read-only cache; the tone mapping muted, so the composite is
     the scattering pass itself. Returns (scene, cache)."""
-    cache = tmp_path / "cache"
-    cache.mkdir()
-    cache.chmod(0o555)
-    monkeypatch.setenv("OLS_CACHE_DIR", str(cache))
-
-    def refuse(*args, **kwargs):
-        raise AssertionError("the analytic model touched the tables")
-    monkeypatch.setattr(extension_module("lut_gen.store.cache"), "bake", refuse)
-    monkeypatch.setattr(extension_module("addon.scene.tables.luts"), "load_images", refuse)
+    cache = refuse_tables(monkeypatch, tmp_path)
     scene = sample_scene(pkg)
     sun_mod = extension_module("addon.scene.sun")
     sun_mod.set_sun_angles(sun_mod.find_sun(scene), 5.0, 0.0)
