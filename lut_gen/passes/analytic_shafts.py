@@ -211,9 +211,7 @@ def scattering_pass(m: analytic.AnalyticMedia, image, position, depth, camera: C
     image = np.asarray(image, dtype=np.float64)[..., :3]
     if not settings.enable_light_scattering:
         return image.copy()
-    sun = np.asarray(sun_direction, dtype=np.float64) / np.linalg.norm(sun_direction)
-    height, width = image.shape[:2]
-    directions = camera.view_directions(width, height)
+    sun, width, height, directions = tables_pass.pixel_rays(image, sun_direction, camera)
     far = cascades.far_depths[-1] if cascades is not None else 1.0
     shafts = settings.enable_light_shafts and cascades is not None
     end, geometry = tables_pass.march_ends(camera, directions, position, depth, far)

@@ -88,15 +88,20 @@ def march_ends(camera: Camera, directions, position, depth, far: float, clouds=N
     return np.where(geometry[..., None], position, sky_end), geometry
 
 
+def pixel_rays(image, sun_direction, camera: Camera):
+    """(unit sun, width, height, (H, W, 3) view directions) of a pass over ``image``."""
+    height, width = image.shape[:2]
+    return (np.asarray(sun_direction, dtype=np.float64) / np.linalg.norm(sun_direction), width, height,
+            camera.view_directions(width, height))
+
+
 def scattering_pass(luts: Luts, image, position, depth, camera: Camera, sun_direction,
                     cascades: ShadowCascades | None, settings: PassSettings) -> np.ndarray:
     """(H, W, 3) radiance; arrays are (H, W, ...) with rows bottom to top, as Blender's."""
     image = np.asarray(image, dtype=np.float64)[..., :3]
     if not settings.enable_light_scattering:
         return image.copy()
-    sun = np.asarray(sun_direction, dtype=np.float64) / np.linalg.norm(sun_direction)
-    height, width = image.shape[:2]
-    directions = camera.view_directions(width, height)
+    sun, width, height, directions = pixel_rays(image, sun_direction, camera)
     if settings.clouds_enabled:
         image = veil_surfaces(luts, image, position, depth, camera, sun, settings)
     far = cascades.far_depths[-1] if cascades is not None else None
