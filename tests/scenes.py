@@ -16,6 +16,14 @@ bpy = pytest.importorskip("bpy")
 RAMP_WIDTH, RAMP_HEIGHT = 64, 4
 
 
+def shaft_layout(tree) -> dict:
+    """The ShaftLayout an "OLS Light Shafts" group was built for, by field name (its key is the
+    fields' values in order)."""
+    import ast
+    fields = dataclasses.fields(extension_module("addon.nodes.light_shafts").ShaftLayout)
+    return dict(zip((field.name for field in fields), ast.literal_eval(tree["ols_layout"])))
+
+
 def refuse_tables(monkeypatch, tmp_path):
     """An empty, read-only cache directory (OLS_CACHE_DIR) and every way to the tables refused:
     what a scene under the analytic model must render with. Returns the directory."""

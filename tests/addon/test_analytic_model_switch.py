@@ -9,7 +9,7 @@ import pytest
 
 from extension import extension_module
 from render_util import render_rgb
-from scenes import sample_scene
+from scenes import sample_scene, shaft_layout
 
 bpy = pytest.importorskip("bpy")
 
@@ -84,7 +84,7 @@ def test_set_up_with_the_analytic_model_needs_no_tables(addon_package, tmp_path,
     for name in ("Camera Position", "Sun Direction", "Sun Strength"):     # camera and sun per frame
         assert aerial.inputs[name].links[0].from_node.name == "OLS Frame Values", name
     shafts = scene.compositing_node_group.nodes["OLS Light Shafts"]      # the shafts are on, analytic
-    assert scene.ols.enable_light_shafts and not shafts.mute and shafts.node_tree["ols_layout"].endswith("True)")
+    assert scene.ols.enable_light_shafts and not shafts.mute and shaft_layout(shafts.node_tree)["analytic"]
     clear = render_rgb(scene, tmp_path / "clear.exr", composite=True)
     assert np.isfinite(clear).all() and clear.mean() > 0.02
     other = "BRUTE_FORCE" if scene.ols.scattering_technique == "EPIPOLAR_SAMPLING" else "EPIPOLAR_SAMPLING"
@@ -180,12 +180,12 @@ def test_a_scene_set_up_analytic_gets_the_light_shafts_when_switched_to_the_tabl
         bpy.data.node_groups.remove(bpy.data.node_groups[name])
     scene.ols.atmosphere_model = "ANALYTIC"
     assert bpy.ops.ols.setup_scene(resolution="draft") == {"FINISHED"}
-    assert bpy.data.node_groups["OLS Light Shafts"]["ols_layout"].endswith("True)")        # analytic
+    assert shaft_layout(bpy.data.node_groups["OLS Light Shafts"])["analytic"]        # analytic
     _refuse_baking(monkeypatch)
     scene.ols.atmosphere_model = "PRECOMPUTED"
     shafts = scene.compositing_node_group.nodes.get("OLS Light Shafts")
     assert shafts is not None and not shafts.mute and shafts.inputs["Image"].is_linked
-    assert shafts.node_tree["ols_layout"].endswith("False)")                              # the tables'
+    assert not shaft_layout(shafts.node_tree)["analytic"]                              # the tables'
     assert "OLS Analytic March Chunk" not in {n.node_tree.name for n in shafts.node_tree.nodes
                                               if n.type == "GROUP" and n.node_tree}
     _small(scene)

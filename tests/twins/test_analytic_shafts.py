@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from render_util import render_rgb, save_png
-from scenes import refuse_tables, render_passes, sample_scene
+from scenes import refuse_tables, render_passes, sample_scene, shaft_layout
 from extension import extension_module
 
 bpy = pytest.importorskip("bpy")
@@ -78,7 +78,7 @@ def test_analytic_shafts_match_the_twin_in_every_mode(addon_package, tmp_path, m
     scene.ols.scattering_technique = technique
     passes = render_passes(addon_package, scene, tmp_path)
     shafts = scene.compositing_node_group.nodes["OLS Light Shafts"]
-    assert not shafts.mute and shafts.node_tree["ols_layout"].endswith("True)")         # the analytic layout
+    assert not shafts.mute and shaft_layout(shafts.node_tree)["analytic"]         # the analytic layout
     assert shafts.node_tree["ols_layout"].find(technique) >= 0
     geometry = passes[2] < 1e9
     assert 0.2 < geometry.mean() < 0.9                                     # terrain and sky in view
