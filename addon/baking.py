@@ -116,6 +116,11 @@ def show_analytic_stand_in(scene):
 PREVIEW_RESOLUTION = "draft"
 
 
+def wants_preview(params, resolution, preview: bool = True) -> bool:
+    """Whether a bake of these tables shows previews: they are not cached, and not the draft."""
+    return preview and resolution != PREVIEW_RESOLUTION and not is_baked(params, resolution)
+
+
 class BakeSuperseded(Exception):
     """Raised inside a bake's progress report once a newer bake has started."""
 
@@ -137,8 +142,7 @@ class BackgroundBake:
         self.params, self.resolution = params, resolution
         self.stage, self.fraction, self.error, self.done = "starting", 0.0, None, False
         self.superseded = False
-        wants_preview = preview and resolution != PREVIEW_RESOLUTION and not is_baked(params, resolution)
-        self.preview_resolution = PREVIEW_RESOLUTION if wants_preview else None
+        self.preview_resolution = PREVIEW_RESOLUTION if wants_preview(params, resolution, preview) else None
         self.preview_ready = False
         self.render_after = None        # "STILL" or "ANIMATION": F12 pressed while baking
         if _latest is not None and not _latest.done:

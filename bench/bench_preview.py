@@ -4,7 +4,7 @@ set), with the draft preview against without it, side by side in one run.
 The sample is wired to the default tables (baked first, not timed). Then, for a new aerosol
 density each time (nothing cached), the time from the change to:
   - the analytic model standing in (baking.show_analytic_stand_in, as the Bake Tables operator
-    does right after starting the bake), while the draft bakes on the worker thread;
+    does just before it starts the bake's thread);
   - the preview on screen: the draft bake (addon/baking.py's BackgroundBake) and its swap into
     the scene (the node groups rebuilt);
   - the full tables on screen after the preview: the default bake finished and swapped in;
@@ -50,10 +50,11 @@ def main():
     # With the preview: the analytic model stands in at once (what the Bake Tables operator does
     # right after starting the bake), then the draft.
     start = time.perf_counter()
-    bake = baking.BackgroundBake(change(1.37), "default", preview=True)
-    assert baking.analytic_can_stand_in(scene)
+    params = change(1.37)
+    assert baking.wants_preview(params, "default") and baking.analytic_can_stand_in(scene)
     baking.show_analytic_stand_in(scene)
     stand_in_shown = time.perf_counter()
+    bake = baking.BackgroundBake(params, "default", preview=True)
     while not (bake.preview_ready or bake.done):
         time.sleep(0.01)
     preview_baked = time.perf_counter()

@@ -154,10 +154,11 @@ def test_the_bake_operator_shows_the_preview_and_renders_after_f12(wired, monkey
         setattr(operator, method, getattr(ops.OLS_OT_bake_luts, method).__get__(operator))
     operator._params = changed_params(scene)
     started = time.perf_counter()
+    assert baking.wants_preview(operator._params, FULL)
+    operator._show_stand_in(context)                                   # what invoke does, then the bake
+    print(f"analytic stand-in on screen {time.perf_counter() - started:.2f} s after the change")
     operator._bake = baking.BackgroundBake(operator._params, FULL, preview=True)
     operator._preview_shown, operator._timer = False, None
-    operator._show_stand_in(context)                                   # what invoke does next
-    print(f"analytic stand-in on screen {time.perf_counter() - started:.2f} s after the change")
     assert baking.showing_preview(scene) and baking.preview_name(scene) == "analytic"
     assert not operator.reports
     modal = ops.OLS_OT_bake_luts.modal
