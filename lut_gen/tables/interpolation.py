@@ -66,18 +66,28 @@ def interpolate_many(tables, coords, chunk: int = 1 << 20, geometric_axes=(), pa
     for start in range(0, flat_coords[0].size, chunk):
         sl = slice(start, start + chunk)
         lows, weights = zip(*(axis_weights(c[sl], n) for c, n in zip(flat_coords, axes)))
+        # Per axis the lower and upper node's offset into the rows and their weights, once for
+        # all corners (per corner they cost a fifth of the look-ups on the epipolar air tables).
+        offsets = [(low * stride, np.minimum(low + 1, n - 1) * stride) for low, stride, n in zip(lows, strides, axes)]
+        factors = [(1.0 - w, w) for w in weights]
+        linear = [axis for axis in range(len(axes)) if axis not in geometric_axes]
         partials = [{} for _ in tables]   # linear blends keyed by their corner on the geometric axes
         for corner in itertools.product((0, 1), repeat=len(axes)):
-            index = np.zeros(lows[0].size, dtype=np.int64)
+            index = offsets[0][corner[0]]
+            for axis in range(1, len(axes)):
+                index = index + offsets[axis][corner[axis]]
             weight = np.ones(lows[0].size, dtype=np.float32)
-            for axis, (bit, low, w, stride, n) in enumerate(zip(corner, lows, weights, strides, axes)):
-                index += np.minimum(low + bit, n - 1) * stride
-                if axis not in geometric_axes:
-                    weight *= w if bit else 1.0 - w
+            for axis in linear:
+                weight *= factors[axis][corner[axis]]
             key = tuple(corner[axis] for axis in geometric_axes)
             for table, (rows, width), partial in zip(tables, packed, partials):
-                term = weight[:, None] * gather(rows, width, index)[:, :table.shape[-1]]
-                partial[key] = term if key not in partial else partial[key] + term
+                # The gathered rows are a fresh array: weighted and summed in place, no temporaries.
+                term = gather(rows, width, index)[:, :table.shape[-1]]
+                term *= weight[:, None]
+                if key in partial:
+                    partial[key] += term
+                else:
+                    partial[key] = term
         for out, partial in zip(outs, partials):
             for axis in geometric_axes:   # log-space blending is separable: the order does not matter
                 w = weights[axis][:, None]
