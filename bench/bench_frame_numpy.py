@@ -57,8 +57,10 @@ def frame_seconds(timer, package, scene, depsgraph) -> dict:
     timer.reset()
     frame_update.update_frame(scene, depsgraph)
     seconds = dict(timer.seconds)
-    inner = [s for s in PRINTED[:-2] if s != "min/max maps"]     # min/max runs inside the lit-length tables
+    # min/max runs inside the lit-length tables; a stage on a worker thread overlaps the others.
+    inner = [s for s in PRINTED[:-2] if s != "min/max maps" and s not in timer.beside]
     seconds["other"] = seconds["frame update"] - sum(seconds.get(s, 0.0) for s in inner)
+    seconds["beside"] = sorted(timer.beside)
     return seconds
 
 
@@ -123,6 +125,10 @@ def _print(scene_name, runs):
                for label, frames in runs.items()}
     for label, median in medians.items():
         print(f"{label:6} " + " ".join(f"{median[s]:12.3f}" for s in PRINTED))
+    for label, frames in runs.items():
+        if frames[0]["beside"]:
+            print(f"  ({label}: {', '.join(frames[0]['beside'])} on a worker thread, beside the others; "
+                  "not part of 'other')")
     if len(medians) == 2:
         base, new = medians["base"], medians["new"]
         print(f"{'ratio':6} " + " ".join(f"{new[s] / base[s] if base[s] > 1e-4 else float('nan'):12.2f}"

@@ -26,6 +26,7 @@ import argparse
 import os
 import sys
 import tempfile
+import threading
 import time
 from collections import defaultdict
 from importlib import import_module
@@ -39,10 +40,12 @@ TECHNIQUES = ("BRUTE_FORCE", "EPIPOLAR_SAMPLING")
 
 
 class StageTimer:
-    """Wraps module functions so each call's time adds to its stage, by name."""
+    """Wraps module functions so each call's time adds to its stage, by name; ``beside`` names
+    the stages that ran on another thread than the main one (their time overlaps the others')."""
 
     def __init__(self):
         self.seconds = defaultdict(float)
+        self.beside = set()
 
     def wrap(self, module, attribute, stage):
         original = getattr(module, attribute)
@@ -53,10 +56,13 @@ class StageTimer:
                 return original(*args, **kwargs)
             finally:
                 self.seconds[stage] += time.perf_counter() - start
+                if threading.current_thread() is not threading.main_thread():
+                    self.beside.add(stage)
         setattr(module, attribute, timed)
 
     def reset(self):
         self.seconds.clear()
+        self.beside.clear()
 
 
 def main():

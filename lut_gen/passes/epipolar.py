@@ -192,14 +192,66 @@ def corner_cosine(camera: Camera) -> float:
 
 
 def _screen_border(camera: Camera, width: int, height: int) -> np.ndarray:
-    tx, ty = camera.tan_half_fov
     s = np.linspace(-1.0, 1.0, BORDER_POINTS)
-    one = np.ones_like(s)
-    xy = np.concatenate([np.stack([s, -one], -1), np.stack([s, one], -1), np.stack([-one, s], -1),
-                         np.stack([one, s], -1)])
+    return _border_directions(camera, s, s)
+
+
+def _border_directions(camera: Camera, x, y) -> np.ndarray:
+    """Unit world directions through the border of the screen rectangle whose columns are at
+    ``x`` and rows at ``y`` (increasing, in units of the half field of view's tangents)."""
+    tx, ty = camera.tan_half_fov
+    x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    xy = np.concatenate([np.stack(np.broadcast_arrays(x, y[0]), -1), np.stack(np.broadcast_arrays(x, y[-1]), -1),
+                         np.stack(np.broadcast_arrays(x[0], y), -1), np.stack(np.broadcast_arrays(x[-1], y), -1)])
     local = np.stack([xy[:, 0] * tx, xy[:, 1] * ty, -np.ones(len(xy))], axis=-1)
     world = local @ np.asarray(camera.rotation, dtype=np.float64).T
     return world / np.linalg.norm(world, axis=-1, keepdims=True)
+
+
+def screen_nodes(frame: EpipolarFrame, camera: Camera, width: int, height: int) -> np.ndarray:
+    """(slices + 1, samples) bool: the grid nodes the pixels of a width x height render read.
+    A pixel reads the four nodes around it (``trilinear``, the compositor's fetches); with one
+    node more on every side (the compositor finds its cell in float32) these are all the nodes
+    any pixel can read, and building only them leaves every pixel's look-up as it was. Where
+    the screen covers only part of the grid's (phi, theta) rectangle (half of it for the
+    sample's view) the rest need not be marched."""
+    # Pixel centres lie inside the rectangle of the outermost ones: a cell holds pixels where a
+    # corner node lies inside that rectangle or its border crosses the cell (the border's pixel
+    # centres, a pixel apart, find every cell it crosses that a pixel centre can lie in).
+    columns = (2.0 * np.arange(width) + 1.0) / width - 1.0
+    rows = (2.0 * np.arange(height) + 1.0) / height - 1.0
+    tx, ty = camera.tan_half_fov
+    local = frame.node_directions() @ np.asarray(camera.rotation, dtype=np.float64)     # camera axes
+    depth = -local[..., 2]
+    inside = ((depth > 0.0) & (np.abs(local[..., 0]) <= columns[-1] * tx * depth)
+              & (np.abs(local[..., 1]) <= rows[-1] * ty * depth))
+    cells = inside[:-1, :-1] | inside[1:, :-1] | inside[:-1, 1:] | inside[1:, 1:]     # (slices, samples - 1)
+    x, y = frame.direction_to_x(_border_directions(camera, columns, rows))
+    cells[np.minimum(x.astype(np.int64), frame.slices - 1), np.minimum(y.astype(np.int64), frame.samples - 2)] = True
+    cells = _grown(cells, frame.full_turn)
+    nodes = np.zeros((frame.slices + 1, frame.samples), dtype=bool)
+    for di in (0, 1):
+        for dj in (0, 1):
+            nodes[di:frame.slices + di, dj:frame.samples - 1 + dj] |= cells
+    if frame.full_turn:                         # the last slice node is the first one's direction
+        nodes[0] |= nodes[-1]
+        nodes[-1] = nodes[0]
+    return nodes
+
+
+def _grown(cells, wrap: bool):
+    """``cells`` (slices, samples - 1) and their eight neighbours; across the first and last
+    slice too when ``wrap`` (a full turn)."""
+    grown = cells.copy()
+    grown[:, 1:] |= cells[:, :-1]
+    grown[:, :-1] |= cells[:, 1:]
+    along = grown.copy()
+    grown[1:] |= along[:-1]
+    grown[:-1] |= along[1:]
+    if wrap:
+        grown[0] |= along[-1]
+        grown[-1] |= along[0]
+    return grown
 
 
 def _on_screen(rotation, direction, tx, ty) -> bool:
@@ -298,9 +350,13 @@ def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Ca
 
 def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera, settings: EpipolarSettings,
                  smooth: bool = True, best_search: bool = True, first_cascade: int = 0, luts=None,
-                 integrate: bool = False, clouds=None, integral=None) -> EpipolarTables:
+                 integrate: bool = False, clouds=None, integral=None, needed=None) -> EpipolarTables:
     """March the initial samples of every slice, refine between marched neighbours that
-    disagree, and interpolate the rest along each slice (``integral``: as for march)."""
+    disagree, and interpolate the rest along each slice (``integral``: as for march).
+    ``needed`` ((slices + 1, samples) bool, screen_nodes): the nodes to build; then only the
+    spans between initial samples that hold one are marched and refined, which gives those
+    nodes the values the whole grid's build gives them (a node's value comes from its span's
+    ends and bisection alone). The other nodes hold whatever the filling left."""
     settings = settings.checked()
     nodes = frame.node_directions()
     n_slices, n_samples = nodes.shape[:2]
@@ -335,14 +391,16 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
         marched[idx] = True
 
     initial_indices = initial_samples(n_samples, settings.initial_sample_step, settings.epipole_sampling_density)
-    initial = np.zeros(n_samples, dtype=bool)
-    initial[initial_indices] = True
-    run(np.broadcast_to(initial, marched.shape))
+    pairs = _initial_pairs(n_slices, initial_indices)
+    if needed is not None:
+        pairs = _spans_holding(pairs, needed)
+    initial = np.zeros(marched.shape, dtype=bool)
+    initial[pairs[0], pairs[1]] = initial[pairs[0], pairs[2]] = True
+    run(initial)
     if settings.refinement_threshold > 0:
         # Bisection: where two marched neighbours disagree, march the sample halfway between
         # them, until every disagreeing pair is adjacent. A shadow edge inside a span of 16
         # costs about log2(16) rays, not the 15 that marching the whole span cost.
-        pairs = _initial_pairs(n_slices, initial_indices)
         while True:
             pairs, need = _disagreeing_midpoints(geometry_length, pairs, t, settings.refinement_threshold)
             if not need.any():
@@ -358,6 +416,15 @@ def _initial_pairs(n_slices: int, samples):
     """(slice, lower sample, upper sample) of each two consecutive ``samples`` of every slice."""
     slices = np.repeat(np.arange(n_slices), len(samples) - 1)
     return slices, np.tile(samples[:-1], n_slices), np.tile(samples[1:], n_slices)
+
+
+def _spans_holding(pairs, needed):
+    """The pairs (slice, lower sample, upper sample) whose span, ends included, holds a node
+    ``needed`` marks."""
+    slices, lower, upper = pairs
+    before = np.cumsum(needed, axis=1) - needed                 # needed nodes below each sample
+    holds = before[slices, upper] + needed[slices, upper] > before[slices, lower]
+    return slices[holds], lower[holds], upper[holds]
 
 
 def _disagreeing_midpoints(lit_length, pairs, t, threshold):

@@ -92,8 +92,10 @@ def _above_ground(luts: Luts, camera, directions, t):
     return np.where(lifted[..., None], aerial._tilted(up, directions, raised), directions), lifted
 
 
-def build(luts: Luts, frame: EpipolarFrame, camera_position) -> AirTables:
-    """I / phase at the nodes of ``frame`` (an air_frame) seen from ``camera_position``."""
+def build(luts: Luts, frame: EpipolarFrame, camera_position, needed=None) -> AirTables:
+    """I / phase at the nodes of ``frame`` (an air_frame) seen from ``camera_position``;
+    ``needed`` ((S+1, N) bool, lut_gen.passes.epipolar.screen_nodes): only those nodes, the
+    others 0."""
     nodes = frame.node_directions()[:, :, None, :]                         # (S+1, N, 1, 3)
     camera = np.broadcast_to(np.asarray(camera_position, dtype=np.float64), nodes.shape)
     t = frame.distances()
@@ -101,9 +103,10 @@ def build(luts: Luts, frame: EpipolarFrame, camera_position) -> AirTables:
     # Rays no distance raises keep one direction: their start look-ups are made once, not per
     # distance (a third of the tables' time; the sky's half of a frame has no raised ray).
     straight = ~lifted.any(axis=-1)                                        # (S+1, N)
+    built = np.ones(straight.shape, dtype=bool) if needed is None else needed
     names = ("single", "single_mie", "higher") + (() if luts.single_fog is None else ("single_fog",))
     radiances = [np.zeros(directions.shape, dtype=np.float32) for _ in names]
-    for rays, ray_directions in ((straight, nodes), (~straight, directions)):
+    for rays, ray_directions in ((straight & built, nodes), (~straight & built, directions)):
         if not rays.any():
             continue
         start, direction = camera[rays], ray_directions[rays]              # (m, 1, 3), (m, 1 or K, 3)

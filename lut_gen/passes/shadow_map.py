@@ -52,7 +52,12 @@ def cascade_splits(near: float, far: float, count: int, partitioning_factor: flo
     i = np.arange(count + 1) / count
     uniform = near + (far - near) * i
     logarithmic = near * (far / near) ** i
-    return uniform + (logarithmic - uniform) * float(np.clip(partitioning_factor, 0.0, 1.0))
+    splits = uniform + (logarithmic - uniform) * float(np.clip(partitioning_factor, 0.0, 1.0))
+    # Exactly near and far at the ends (the blend rounds them): the frame's epipolar grid is
+    # laid out from ``far`` before the cascades exist (addon/scene/frame/frame_update.py) and
+    # must match the one laid out from the cascades' last split.
+    splits[0], splits[-1] = near, far
+    return splits
 
 
 @dataclass

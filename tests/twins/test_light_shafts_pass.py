@@ -323,8 +323,8 @@ def test_a_render_redoes_the_shadow_maps_only_when_something_they_depend_on_chan
     scene = low_sun_scene(addon_package, tmp_path, monkeypatch, steps=4)
     shadow_maps = extension_module("addon.scene.frame.shadow_maps")
     calls = []
-    original = shadow_maps.render
-    monkeypatch.setattr(shadow_maps, "render", lambda *a, **k: calls.append(1) or original(*a, **k))
+    original = shadow_maps.rasterise
+    monkeypatch.setattr(shadow_maps, "rasterise", lambda *a, **k: calls.append(1) or original(*a, **k))
     first = render_rgb(scene, tmp_path / "first.exr", composite=True)
     assert len(calls) == 1
     scene.ols.middle_gray = 0.25                            # tone mapping (muted here): no shadow input

@@ -2,8 +2,11 @@
 Shafts" group reads, and the choice of technique for the scene's settings."""
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import functools
 import weakref
+from concurrent.futures import ThreadPoolExecutor
 
 import bpy
 import numpy as np
@@ -100,16 +103,31 @@ def images_intact(layout, settings) -> bool:
 _air_cache = {"luts": None, "key": None, "tables": None}
 
 
-def _air_tables(luts_object, air, camera_position):
+def _air_key(grid, camera_position):
+    air, needed = grid
+    return (np.asarray(camera_position, dtype=np.float64).tobytes(), needed.tobytes(),
+            tuple(np.asarray(v).tobytes() if isinstance(v, np.ndarray) else v for v in dataclasses.astuple(air)))
+
+
+def _air_tables_started(worker, luts_object, grid, camera_position):
+    """A function returning the in-scattering tables of ``grid`` ((air frame, nodes needed)): the
+    cached ones, or those ``worker`` builds from now on (cached here, on the calling thread, when
+    the function fetches them)."""
     # The bake is compared by identity through a weak reference: a new bake never matches a
     # freed one's reused id, and a replaced bake's tables are not kept alive by this cache.
-    key = (np.asarray(camera_position, dtype=np.float64).tobytes(),
-           tuple(np.asarray(v).tobytes() if isinstance(v, np.ndarray) else v for v in dataclasses.astuple(air)))
+    key = _air_key(grid, camera_position)
     cached = _air_cache["luts"]
-    if cached is None or cached() is not luts_object or _air_cache["key"] != key:
-        _air_cache.update(luts=weakref.ref(luts_object), key=key,
-                          tables=epipolar_air.build(luts_object, air, camera_position))
-    return _air_cache["tables"]
+    if cached is not None and cached() is luts_object and _air_cache["key"] == key:
+        tables = _air_cache["tables"]
+        return lambda: tables
+    air, needed = grid
+    future = worker.submit(epipolar_air.build, luts_object, air, camera_position, needed)
+
+    def fetched():
+        tables = future.result()            # the worker's error, if any, raises here
+        _air_cache.update(luts=weakref.ref(luts_object), key=key, tables=tables)
+        return tables
+    return fetched
 
 
 def forget():
@@ -117,23 +135,53 @@ def forget():
     _air_cache.update(luts=None, key=None, tables=None)
 
 
-def update(state, cascades, luts_object, clouds=None) -> dict:
-    """Build the frame's tables, write them into the images; the "OLS Frame Values" rows.
-    ``state``: the frame's FrameState; ``luts_object``: the bake as lut_gen.Luts; ``clouds``:
-    (layer, map) while the cloud layer shadows the air."""
-    settings, camera, sun_direction = state.settings, state.camera, state.sun_direction
+def grids(state, far: float, luts_object, clouds=None):
+    """((lit-length grid, its nodes the screen reads), (in-scattering grid, its nodes)) of the
+    frame (lut_gen.passes.epipolar.EpipolarFrame, screen_nodes): ``far`` is the shadow cascades'
+    last split (shadow_maps.Casters.far). Only the nodes the screen reads are built."""
+    camera = state.camera
     width, height = state.render_size
-    wanted = epipolar.settings_from(settings)
     reach = epipolar.cloud_reach(clouds, camera, width, height, luts_object.params.earth_radius)
-    frame = epipolar.frame_for(camera, sun_direction, width, height, float(cascades.far_depths[-1]), wanted, reach)
-    integrate = settings.single_scattering_mode == "INTEGRATION"
-    tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
-                                   settings.best_cascade_search, settings.first_cascade_to_ray_march,
-                                   luts_object, integrate, clouds)
-    _write_lit_tables(frame, tables, settings, camera, width, height)
+    frame = epipolar.frame_for(camera, state.sun_direction, width, height, far, epipolar.settings_from(state.settings),
+                               reach)
     air = epipolar_air.air_frame(frame, camera)
-    air_tables = _air_tables(luts_object, air, camera.position)
-    for name, pixels in nodes.epipolar.pack_air(air_tables).items():
+    return ((frame, epipolar.screen_nodes(frame, camera, width, height)),
+            (air, epipolar.screen_nodes(air, camera, width, height)))
+
+
+@contextlib.contextmanager
+def building(state, far: float, luts_object, clouds=None):
+    """The frame's tables, built while the block runs; yields ``finish(cascades) -> rows``.
+    ``state``: the frame's FrameState; ``far``: the cascades' last split; ``luts_object``: the
+    bake as lut_gen.Luts; ``clouds``: (layer, map) while the cloud layer shadows the air.
+
+    The in-scattering tables need no shadow maps: they build on a worker thread from the start
+    of the block, beside the shadow maps' rasterising and the lit-length tables (numpy releases
+    the GIL in its loops). ``finish`` builds and writes the lit-length tables on this thread,
+    then the in-scattering tables when the worker has them, and returns the "OLS Frame Values"
+    rows; the worker's error raises there. The worker never outlives the block (leaving it waits
+    for the tables), and its tables are those the serial build makes: the same call on the same
+    inputs."""
+    (frame, needed), air_grid = grids(state, far, luts_object, clouds)
+    with ThreadPoolExecutor(1, thread_name_prefix="OLS in-scattering") as worker:
+        air_tables = _air_tables_started(worker, luts_object, air_grid, state.camera.position)
+        yield functools.partial(_finish, state, far, frame, needed, air_grid[0], air_tables, luts_object, clouds)
+
+
+def _finish(state, far, frame, needed, air, air_tables, luts_object, clouds, cascades) -> dict:
+    """The lit-length tables of ``cascades`` (the nodes ``needed``) and the in-scattering
+    tables (``air_tables()``) into their images; the "OLS Frame Values" rows (see building)."""
+    if float(cascades.far_depths[-1]) != far:
+        raise ValueError(f"the epipolar grid was laid out for cascades to {far} m, these end at "
+                         f"{float(cascades.far_depths[-1])} m")
+    settings, camera = state.settings, state.camera
+    width, height = state.render_size
+    tables = epipolar.build_tables(frame, cascades, camera, epipolar.settings_from(settings), settings.smooth_shadows,
+                                   settings.best_cascade_search, settings.first_cascade_to_ray_march,
+                                   luts_object, settings.single_scattering_mode == "INTEGRATION", clouds,
+                                   needed=needed)
+    _write_lit_tables(frame, tables, settings, camera, width, height)
+    for name, pixels in nodes.epipolar.pack_air(air_tables()).items():
         luts.write_data_image(name, pixels)
     values = frame.as_values()
     values["Epipolar Depth"] = (frame.t_max, frame.growth, air.t_max)

@@ -11,6 +11,8 @@ compositing skip it all.
 """
 from __future__ import annotations
 
+import contextlib
+
 import bpy
 import numpy as np
 
@@ -102,18 +104,29 @@ def update_frame(scene, depsgraph) -> bool:
         return False
     cascades, extra = None, None
     if shafts:
-        cascades = shadow_maps.render(state, depsgraph)
-        if node.node_tree.get(names.READS_SHADOW_MAPS_KEY, True):
-            shadow_maps.write_images(cascades)
-        if node.node_tree.get(names.LAYOUT_KEY, "").find("EPIPOLAR_SAMPLING") >= 0:
-            if wired_bake.is_analytic(scene):       # no tables: the model's media, no clouds
-                extra = epipolar_tables.update_analytic(state, cascades, analytic.media(analytic_params(scene.ols)))
-            else:
-                extra = epipolar_tables.update(state, cascades, wired_bake.bake_info(scene).numpy_luts(),
-                                               cloud_map.numpy_layer(scene, state.clouds))
+        casters = shadow_maps.casters(state, depsgraph)
+        with _epipolar_tables(scene, node, state, casters.far) as finish_tables:
+            cascades = shadow_maps.rasterise(state, casters)
+            if node.node_tree.get(names.READS_SHADOW_MAPS_KEY, True):
+                shadow_maps.write_images(cascades)
+            extra = finish_tables(cascades)
     write_frame_values(scene, state, cascades, extra)
     _state.update(key=key, geometry_changed=False)
     return True
+
+
+def _epipolar_tables(scene, node, state, far: float):
+    """A context yielding ``finish(cascades) -> frame value rows or None``, which builds and
+    writes the epipolar tables the shafts group's layout reads (none: None). With the baked
+    tables the in-scattering tables build on a worker thread while the block rasterises the
+    shadow maps (epipolar_tables.building); ``far``: the cascades' last split."""
+    if node.node_tree.get(names.LAYOUT_KEY, "").find("EPIPOLAR_SAMPLING") < 0:
+        return contextlib.nullcontext(lambda cascades: None)
+    if wired_bake.is_analytic(scene):       # no tables: the model's media, no clouds
+        media = analytic.media(analytic_params(scene.ols))
+        return contextlib.nullcontext(lambda cascades: epipolar_tables.update_analytic(state, cascades, media))
+    return epipolar_tables.building(state, far, wired_bake.bake_info(scene).numpy_luts(),
+                                    cloud_map.numpy_layer(scene, state.clouds))
 
 
 def note_depsgraph_update(depsgraph):

@@ -8,6 +8,8 @@ through the "OLS Frame Values" image.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import bpy
 import numpy as np
 
@@ -84,18 +86,38 @@ def far_depth(camera: shadow_map.Camera, triangles, clip_end: float, near: float
     return float(np.clip(depth, near * 2.0, max(clip_end, near * 2.0)))
 
 
-def render(state: frame_state.FrameState, depsgraph) -> shadow_map.ShadowCascades:
-    """Render the cascades for the frame's camera, sun and settings (meshes as evaluated in
-    ``depsgraph``)."""
-    settings = state.settings
-    resolution = int(settings.shadow_map_resolution)
+@dataclass(frozen=True)
+class Casters:
+    """The frame's shadow casters: world-space triangles (M, 3, 3), and the view depths the
+    cascades span (``far`` is their last split: the epipolar grid is laid out from it)."""
+    triangles: np.ndarray
+    near: float
+    far: float
+
+
+def casters(state: frame_state.FrameState, depsgraph) -> Casters:
+    """The meshes as evaluated in ``depsgraph`` that cast shadows, and the cascades' depth range
+    (reads Blender data: the main thread only)."""
+    resolution = int(state.settings.shadow_map_resolution)
     if resolution < 16:
         raise frame_state.ShadowMapError(f"shadow map resolution {resolution} is too small; pick 512 or more")
     triangles = scene_triangles(depsgraph)
     near = max(state.clip_start, MIN_NEAR)
-    far = far_depth(state.camera, triangles, state.camera.clip_end, near)
-    return shadow_map.render_cascades(triangles, state.camera, state.sun_direction, resolution,
-                                      settings.num_cascades, settings.cascade_partitioning_factor, near, far)
+    return Casters(triangles, near, far_depth(state.camera, triangles, state.camera.clip_end, near))
+
+
+def rasterise(state: frame_state.FrameState, found: Casters) -> shadow_map.ShadowCascades:
+    """The cascades of ``found`` for the frame's camera, sun and settings."""
+    settings = state.settings
+    return shadow_map.render_cascades(found.triangles, state.camera, state.sun_direction,
+                                      int(settings.shadow_map_resolution), settings.num_cascades,
+                                      settings.cascade_partitioning_factor, found.near, found.far)
+
+
+def render(state: frame_state.FrameState, depsgraph) -> shadow_map.ShadowCascades:
+    """Render the cascades for the frame's camera, sun and settings (meshes as evaluated in
+    ``depsgraph``)."""
+    return rasterise(state, casters(state, depsgraph))
 
 
 # The last packed atlas, packed into again next frame (see pack_atlas): as large as the atlas
