@@ -47,13 +47,16 @@ def show_sampling(g, gin, result, pixel_uv, sampling_image):
     return g.vlerp(result, g.combine(red, 0.0, 0.0), g.mul(dots, gin.outputs["Show Sampling"]))
 
 
-def _rows(channels) -> np.ndarray:
+def _rows(channels, out=None) -> np.ndarray:
     """Up to three (slices + 1, samples, steps) arrays, one per colour channel -> RGBA pixels
     ((slices + 1) steps, samples, 4): row i * steps + k holds slice node i at distance node k;
     the channels not given 0, alpha 1. Each channel goes straight into the pixels: stacking
-    the channels first and zeroing the pixels copied the lit tables twice more (0.03 s)."""
+    the channels first and zeroing the pixels copied the lit tables twice more (0.03 s).
+    ``out``: an array of the pixels' shape to fill (the last frame's)."""
     n_slices, n_samples, steps = np.shape(channels[0])
-    pixels = np.empty((n_slices, steps, n_samples, 4), dtype=np.float32)
+    shape = (n_slices * steps, n_samples, 4)
+    fits = out is not None and out.shape == shape and out.dtype == np.float32 and out.flags.c_contiguous
+    pixels = (out if fits else np.empty(shape, dtype=np.float32)).reshape(n_slices, steps, n_samples, 4)
     for channel, table in enumerate(channels):
         pixels[..., channel] = np.swapaxes(table, 1, 2)
     pixels[..., len(channels):3] = 0.0
@@ -66,10 +69,11 @@ def _channels(table) -> list:
     return [table[..., c] for c in range(table.shape[-1])]
 
 
-def pack(tables: epipolar.EpipolarTables):
-    """(lit RGBA pixels ((S+1) K, N, 4), integral RGBA pixels or None), rows bottom to top."""
-    lit = _rows([tables.lit_length, tables.first_lit])
-    return lit, None if tables.integrated is None else _rows(_channels(tables.integrated))
+def pack(tables: epipolar.EpipolarTables, out=(None, None)):
+    """(lit RGBA pixels ((S+1) K, N, 4), integral RGBA pixels or None), rows bottom to top;
+    ``out``: arrays to pack into where they fit (the last frame's pair)."""
+    lit = _rows([tables.lit_length, tables.first_lit], out[0])
+    return lit, None if tables.integrated is None else _rows(_channels(tables.integrated), out[1])
 
 
 def pack_air(tables: epipolar_air.AirTables) -> dict:

@@ -203,10 +203,21 @@ def update_analytic(state, cascades, media) -> dict:
     return values
 
 
+# The last frame's lit-length pixels, packed into again next frame: fresh memory of their size
+# (64 MiB at 512 slices x 256 samples x 32 steps) cost its page faults on every frame (up to
+# 0.1 s for the forest). Dropped with the shadow maps' atlas (release_buffers).
+_pixel_buffers = {}
+
+
+def release_buffers():
+    _pixel_buffers.clear()
+
+
 def _write_lit_tables(frame, tables, settings, camera, width, height):
     """The lit-length tables, the integral table (when built) and Show Sampling's overlay into
     their images."""
-    lit, integral = nodes.epipolar.pack(tables)
+    lit, integral = nodes.epipolar.pack(tables, _pixel_buffers.pop("lit", (None, None)))
+    _pixel_buffers["lit"] = (lit, integral)
     luts.write_data_image(names.EPIPOLAR_LIT_IMAGE, lit)
     if integral is not None:
         luts.write_data_image(names.EPIPOLAR_INTEGRAL_IMAGE, integral)

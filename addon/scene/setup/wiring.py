@@ -156,6 +156,7 @@ def match_light_shaft_layout(scene) -> bool:
     settings = Sanitized(scene.ols)
     if not (settings.enable_light_scattering and settings.enable_light_shafts):
         shadow_maps.release_buffer()
+        epipolar_tables.release_buffers()
         return False
     if analytic_model and scene.get(names.PREVIEW_KEY):
         # The analytic stand-in for tables still baking: the tables' shafts wait (muted) for
@@ -437,6 +438,7 @@ def unwire_scene(scene):
     clouds.remove_shadow_layer()
     if not any(other.get(names.WIRED_KEY) for other in bpy.data.scenes if other != scene):
         shadow_maps.remove_images(names.FRAME_IMAGE, *epipolar_tables.ALL_IMAGES)
+        epipolar_tables.release_buffers()
     previous = scene.get(names.PREVIOUS_WORLD)
     scene.world = bpy.data.worlds.get(previous) if previous else None
     for obj in scene.objects:
