@@ -255,3 +255,32 @@ def test_in_scattering_tables_match_eq8_per_pixel(draft_luts, elevation, azimuth
         error = np.abs(section - expected).sum() / expected.sum()
         print(part, elevation, azimuth, f"to b {error_to_b:.4f}, sections {error:.4f}")
         assert error_to_b < 0.03 and error < 0.05, (part, error_to_b, error)
+
+
+@pytest.mark.parametrize("elevation, azimuth", [(6.0, 0.0), (25.0, 150.0), (40.0, 180.0)])
+def test_tables_of_the_screen_nodes_give_every_pixel_the_same_values(draft_luts, elevation, azimuth):
+    """epipolar.screen_nodes: building only the nodes the pixels read (the add-on's frame update)
+    leaves every pixel's look-up of the lit-length and the in-scattering tables as the whole
+    grid's build gives it."""
+    from lut_gen.passes import epipolar_air
+    width, height = 64, 36
+    scene = Scene(fence(), CAMERA, sun_at(elevation, azimuth), width, height)
+    settings = epipolar.EpipolarSettings(slices=64, samples=64, steps=16)
+    frame = epipolar.frame_for(scene.camera, scene.sun, width, height, float(scene.cascades.far_depths[-1]), settings)
+    needed = epipolar.screen_nodes(frame, scene.camera, width, height)
+    whole = epipolar.build_tables(frame, scene.cascades, scene.camera, settings)
+    part = epipolar.build_tables(frame, scene.cascades, scene.camera, settings, needed=needed)
+    directions = scene.camera.view_directions(width, height)
+    distances = np.random.default_rng(3).uniform(0.0, 1.2 * frame.t_max, directions.shape[:2])
+    for a, b in zip(epipolar.look_up(frame, whole, directions, distances)[:2],
+                    epipolar.look_up(frame, part, directions, distances)[:2]):
+        np.testing.assert_allclose(b, a, rtol=1e-6, atol=1e-6 * frame.t_max)
+    air = epipolar_air.air_frame(frame, scene.camera)
+    air_needed = epipolar.screen_nodes(air, scene.camera, width, height)
+    whole_air = epipolar_air.build(draft_luts, air, scene.camera.position)
+    part_air = epipolar_air.build(draft_luts, air, scene.camera.position, air_needed)
+    for name in ("rayleigh", "mie", "higher"):
+        a = epipolar.trilinear(air, getattr(whole_air, name), directions, distances)
+        b = epipolar.trilinear(air, getattr(part_air, name), directions, distances)
+        np.testing.assert_allclose(b, a, rtol=1e-6, atol=1e-9 * np.abs(a).max())
+    assert needed.any() and air_needed.any()
