@@ -25,7 +25,7 @@ import numpy as np
 from . import parameterization as par
 from ..model.atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
 from . import ground
-from .interpolation import interpolate, interpolate_many, packed_rows
+from .interpolation import interpolate, interpolate_packed, packed_rows, packed_side_by_side
 from .optical_depth import table_net_density
 
 # The 4D tables are blended geometrically along height and sun zenith (lut_gen.tables.interpolation):
@@ -123,6 +123,14 @@ class Luts:
             self._packed[name] = packed_rows(getattr(self, name))
         return self._packed[name]
 
+    def _packed_side_by_side(self, names: tuple):
+        """The tables ``names`` packed side by side (kept like _packed_table's)."""
+        if self._packed is None:
+            return packed_side_by_side([self.table(name) for name in names])
+        if names not in self._packed:
+            self._packed[names] = packed_side_by_side([self.table(name) for name in names])
+        return self._packed[names]
+
     def table(self, name: str) -> np.ndarray:
         if name not in STORED_TABLES:
             raise ValueError(f"table must be one of {', '.join(STORED_TABLES)}, got {name!r}")
@@ -148,9 +156,12 @@ class Luts:
         coords = (xh, xa, xs, xt)
         if several:
             scale = par.look_up_scale(self.params, height_m, cos_view_zenith, above)[..., None].astype(np.float32)
-            radiances = interpolate_many([self.table(name) for name in table], coords, geometric_axes=GEOMETRIC_AXES,
-                                         packed=[self._packed_table(name) for name in table])
-            return tuple(radiance * scale for radiance in radiances)
+            tables = [self.table(name) for name in table]
+            channels = [t.shape[-1] for t in tables]
+            together = interpolate_packed(self.dims, [self._packed_side_by_side(table)], [sum(channels)], coords,
+                                          geometric_axes=GEOMETRIC_AXES)[0]
+            bounds = np.cumsum([0] + channels)
+            return tuple(together[..., a:b] * scale for a, b in zip(bounds[:-1], bounds[1:]))
         radiance = interpolate(self.table(table), coords, geometric_axes=GEOMETRIC_AXES,
                                packed=self._packed_table(table))
         if not phase_free:

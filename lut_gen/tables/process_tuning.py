@@ -22,6 +22,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import ctypes.util
+import os
 import threading
 
 M_TRIM_THRESHOLD = -1
@@ -29,6 +30,14 @@ M_MMAP_THRESHOLD = -3
 MMAP_THRESHOLD = 32 * 2**20
 TRIM_DURING_BAKE = 2**31 - 1   # (mallopt takes an int) no trimming while baking
 TRIM_AFTER_BAKE = 2 * MMAP_THRESHOLD
+
+def cores() -> int:
+    """The cores this process may run on (a farm worker pinned to some sees only those)."""
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except (AttributeError, OSError):           # not Linux
+        return max(os.cpu_count() or 1, 1)
+
 
 _lock = threading.Lock()
 _active = 0

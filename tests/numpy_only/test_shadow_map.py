@@ -164,3 +164,16 @@ def test_pack_atlas_into_last_frames_buffer_equals_a_fresh_pack():
     np.testing.assert_array_equal(fresh[:, 8:, 0], second.depths[3])
     np.testing.assert_array_equal(fresh[:, :8, 2], second.depths[2])
     assert sm.pack_atlas(cascades(4, res=16), out=buffer) is not buffer     # another size: a new array
+
+
+def test_cascades_rasterised_on_threads_equal_the_serial_ones():
+    """render_cascades(threads=N): each cascade written by one thread, the maps bit for bit
+    those of one thread (the frame update rasterises on every core)."""
+    sun = np.array([0.3, -0.5, 0.4])
+    camera = sm.Camera(np.array([0.0, -60.0, 12.0]), np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]]),
+                       (0.6, 0.35), 500.0)
+    tris = heightfield_triangles(n=40, size=200.0, seed=4)
+    serial = sm.render_cascades(tris, camera, sun, 128, 4, 0.7, 1.0, 300.0)
+    threaded = sm.render_cascades(tris, camera, sun, 128, 4, 0.7, 1.0, 300.0, threads=3)
+    assert (serial.depths > sm.EMPTY_DEPTH).mean() > 0.3
+    np.testing.assert_array_equal(threaded.depths, serial.depths)

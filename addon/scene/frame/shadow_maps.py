@@ -14,6 +14,7 @@ import bpy
 import numpy as np
 
 from ....lut_gen.passes import scattering_pass, shadow_map
+from ....lut_gen.tables import process_tuning
 from ..tables import luts
 from . import frame_state
 from .. import names
@@ -114,7 +115,8 @@ def rasterise(state: frame_state.FrameState, found: Casters) -> shadow_map.Shado
     settings = state.settings
     return shadow_map.render_cascades(found.triangles, state.camera, state.sun_direction,
                                       int(settings.shadow_map_resolution), settings.num_cascades,
-                                      settings.cascade_partitioning_factor, found.near, found.far)
+                                      settings.cascade_partitioning_factor, found.near, found.far,
+                                      threads=process_tuning.cores())
 
 
 def render(state: frame_state.FrameState, depsgraph) -> shadow_map.ShadowCascades:
