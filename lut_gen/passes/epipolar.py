@@ -357,7 +357,7 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
     ``needed`` ((slices + 1, samples) bool, screen_nodes): the nodes to build; then only the
     spans between initial samples that hold one are marched and refined, which gives those
     nodes the values the whole grid's build gives them (a node's value comes from its span's
-    ends and bisection alone). The other nodes hold whatever the filling left. ``threads``:
+    ends and bisection alone). The other nodes hold 0 unless marched. ``threads``:
     how many rays' marches run at once (each writes only its own rays' rows, so the tables
     are the same for any count)."""
     settings = settings.checked()
@@ -421,9 +421,9 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
             if not need.any():
                 break
             run(need)
-    _fill_between_marched(lit_and_first, marched)
+    _fill_between_marched(lit_and_first, marched, needed)
     if integrate:
-        _fill_between_marched(integrated, marched)
+        _fill_between_marched(integrated, marched, needed)
     return EpipolarTables(lit_length, first_lit, integrated, marched)
 
 
@@ -461,15 +461,16 @@ def _disagreeing_midpoints(lit_length, pairs, t, threshold):
     return halves, need
 
 
-def _fill_between_marched(table, marched):
+def _fill_between_marched(table, marched, needed=None):
     """Linear interpolation along each slice's samples from its marched ones (the first and
     the last sample of a slice are always marched), in place (``table``: C-contiguous): only
-    the unmarched rows are gathered and written."""
+    the unmarched rows are gathered and written, of those ``needed`` marks when given (a half
+    to two thirds of the grid: the fill took 0.04-0.07 s of the forest's frame)."""
     n_samples = marched.shape[1]
     samples = np.broadcast_to(np.arange(n_samples), marched.shape)
     before = np.maximum.accumulate(np.where(marched, samples, 0), axis=1)
     after = np.minimum.accumulate(np.where(marched, samples, n_samples - 1)[:, ::-1], axis=1)[:, ::-1]
-    slices, unmarched = np.nonzero(~marched)
+    slices, unmarched = np.nonzero(~marched if needed is None else ~marched & needed)
     if len(slices) == 0:
         return
     low, high = before[slices, unmarched], after[slices, unmarched]

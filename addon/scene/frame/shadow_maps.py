@@ -8,6 +8,7 @@ through the "OLS Frame Values" image.
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import bpy
@@ -22,43 +23,66 @@ from .. import names
 MIN_NEAR = 1.0              # m: the first split; the camera's clip start when larger
 
 
-def scene_triangles(depsgraph) -> np.ndarray:
+def scene_triangles(depsgraph, threads: int = 1) -> np.ndarray:
     """(M, 3, 3) world-space triangles of every evaluated mesh that casts shadows, instances
     included. Instances of one geometry (a forest of instanced trees, a colonnade of linked
     duplicates) share its local triangles, read once, and are placed by their matrices in one
     numpy product: for 10 000 instanced trees 0.22 s a frame, against 0.54 s reading the
-    mesh again for each (bench/bench_instances.py)."""
+    mesh again for each (bench/bench_instances.py). ``threads``: how many share the placing
+    (the forest's 0.66 M triangles: 0.05 s on one)."""
     local = {}          # geometry -> (3T, 3) local triangle corners, or None without triangles
     placed = {}         # geometry -> the world matrices of its instances
     for instance in depsgraph.object_instances:
-        obj = instance.object
-        if obj.type != "MESH" or not getattr(obj, "visible_shadow", True) or obj.hide_render:
+        # Tested per instance, not cached per object: Blender hands every geometry-nodes
+        # instance in one temporary object, its data swapped.
+        key = _geometry_key(instance.object)
+        if key is None:
             continue
-        if obj.name == names.CLOUD_SHADOW_OBJECT:
-            # The clouds' shadow-only layer is a partial occluder, not a solid one: the shadow
-            # maps would make it a roof over the whole scene.
-            continue
-        # The evaluated mesh: shared by the instances of one geometry, apart for each object
-        # whose modifiers made its own.
-        key = obj.data.as_pointer() if obj.data is not None else obj.as_pointer()
         if key not in local:
-            local[key] = _local_corners(obj)
+            local[key] = _local_corners(instance.object)
         if local[key] is not None:
             placed.setdefault(key, []).append(np.array(instance.matrix_world, dtype=np.float64))
     # Every instance's corners written once, straight into the result: adding the translations
     # into a temporary and concatenating copied the forest's 0.66 M triangles twice (0.08 s).
     counts = [len(local[key]) * len(matrices) for key, matrices in placed.items()]
     triangles = np.empty((sum(counts), 3))
+    parts = []
     for (key, matrices), end in zip(placed.items(), np.cumsum(counts)):
         matrices = np.stack(matrices)
         corners = local[key]
-        # All instances' rotations side by side, (3, 3N): one matrix product places every
-        # corner of every instance (einsum took 0.4 s for the forest, this 0.04 s).
-        rotations = matrices[:, :3, :3].transpose(2, 0, 1).reshape(3, -1)
-        world = (corners @ rotations).reshape(len(corners), len(matrices), 3).transpose(1, 0, 2)
         out = triangles[end - len(corners) * len(matrices):end].reshape(len(matrices), len(corners), 3)
-        np.add(world, matrices[:, None, :3, 3], out=out)
+        pieces = max(1, min(threads, len(matrices) // 256))      # a thread's share worth its start
+        bounds = np.linspace(0, len(matrices), pieces + 1).astype(int)
+        parts += [(corners, matrices[a:b], out[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
+    if threads <= 1 or len(parts) == 1:
+        for part in parts:
+            _place(*part)
+    else:
+        with ThreadPoolExecutor(min(threads, len(parts)), thread_name_prefix="OLS shadow casters") as pool:
+            for done in [pool.submit(_place, *part) for part in parts]:
+                done.result()
     return triangles.reshape(-1, 3, 3)
+
+
+def _geometry_key(obj):
+    """The key of the evaluated mesh ``obj`` casts its shadow with (shared by the instances of
+    one geometry, apart for each object whose modifiers made its own); None when it casts none."""
+    if obj.type != "MESH" or not getattr(obj, "visible_shadow", True) or obj.hide_render:
+        return None
+    if obj.name == names.CLOUD_SHADOW_OBJECT:
+        # The clouds' shadow-only layer is a partial occluder, not a solid one: the shadow
+        # maps would make it a roof over the whole scene.
+        return None
+    return obj.data.as_pointer() if obj.data is not None else obj.as_pointer()
+
+
+def _place(corners, matrices, out):
+    """Local corners (3T, 3) placed by each of ``matrices`` (N, 4, 4) into ``out`` (N, 3T, 3)."""
+    # All instances' rotations side by side, (3, 3N): one matrix product places every corner
+    # of every instance (einsum took 0.4 s for the forest, this 0.04 s).
+    rotations = matrices[:, :3, :3].transpose(2, 0, 1).reshape(3, -1)
+    world = (corners @ rotations).reshape(len(corners), len(matrices), 3).transpose(1, 0, 2)
+    np.add(world, matrices[:, None, :3, 3], out=out)
 
 
 def _local_corners(obj):
@@ -105,7 +129,7 @@ def casters(state: frame_state.FrameState, depsgraph) -> Casters:
     resolution = int(state.settings.shadow_map_resolution)
     if resolution < 16:
         raise frame_state.ShadowMapError(f"shadow map resolution {resolution} is too small; pick 512 or more")
-    triangles = scene_triangles(depsgraph)
+    triangles = scene_triangles(depsgraph, process_tuning.cores())
     near = max(state.clip_start, MIN_NEAR)
     return Casters(triangles, near, far_depth(state.camera, triangles, state.camera.clip_end, near))
 
