@@ -23,7 +23,6 @@ lut_gen.passes.epipolar_air. Depth breaks cost nothing: no pixel borrows another
 """
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -351,15 +350,13 @@ def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Ca
 
 def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera, settings: EpipolarSettings,
                  smooth: bool = True, best_search: bool = True, first_cascade: int = 0, luts=None,
-                 integrate: bool = False, clouds=None, integral=None, needed=None, threads: int = 1) -> EpipolarTables:
+                 integrate: bool = False, clouds=None, integral=None, needed=None) -> EpipolarTables:
     """March the initial samples of every slice, refine between marched neighbours that
     disagree, and interpolate the rest along each slice (``integral``: as for march).
     ``needed`` ((slices + 1, samples) bool, screen_nodes): the nodes to build; then only the
     spans between initial samples that hold one are marched and refined, which gives those
     nodes the values the whole grid's build gives them (a node's value comes from its span's
-    ends and bisection alone). The other nodes hold 0 unless marched. ``threads``:
-    how many rays' marches run at once (each writes only its own rays' rows, so the tables
-    are the same for any count)."""
+    ends and bisection alone). The other nodes hold 0 unless marched."""
     settings = settings.checked()
     nodes = frame.node_directions()
     n_slices, n_samples = nodes.shape[:2]
@@ -381,12 +378,8 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
         idx = np.nonzero(mask & ~marched)
         if len(idx[0]) == 0:
             return
-        # At most 2 M points a march (its temporaries stay in memory's reach), and at least a
-        # chunk per thread.
-        count = len(idx[0])
-        chunk = max(1, min((1 << 21) // K, -(-count // max(threads, 1))))
-
-        def march_chunk(start):
+        chunk = max(1, (1 << 21) // K)
+        for start in range(0, len(idx[0]), chunk):
             sel = (idx[0][start:start + chunk], idx[1][start:start + chunk])
             L, F, S, G = march(frame, nodes[sel], cascades, camera, smooth, best_search, first_cascade, luts,
                                integrate, maps, clouds, integral)
@@ -395,14 +388,6 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
                 geometry_length[sel] = G
             if integrate:
                 integrated[sel] = S
-        starts = range(0, count, chunk)
-        if threads <= 1 or len(starts) == 1:
-            for start in starts:
-                march_chunk(start)
-        else:
-            with ThreadPoolExecutor(min(threads, len(starts)), thread_name_prefix="OLS epipolar march") as pool:
-                for done in [pool.submit(march_chunk, start) for start in starts]:
-                    done.result()
         marched[idx] = True
 
     initial_indices = initial_samples(n_samples, settings.initial_sample_step, settings.epipole_sampling_density)

@@ -12,7 +12,6 @@ import bpy
 import numpy as np
 
 from ....lut_gen.passes import analytic_shafts, epipolar, epipolar_air, render_detail
-from ....lut_gen.tables import process_tuning
 from ... import nodes
 from ..tables import luts
 from .. import names
@@ -180,7 +179,7 @@ def _finish(state, far, frame, needed, air, air_tables, luts_object, clouds, cas
     tables = epipolar.build_tables(frame, cascades, camera, epipolar.settings_from(settings), settings.smooth_shadows,
                                    settings.best_cascade_search, settings.first_cascade_to_ray_march,
                                    luts_object, settings.single_scattering_mode == "INTEGRATION", clouds,
-                                   needed=needed, threads=process_tuning.cores())
+                                   needed=needed)
     _write_lit_tables(frame, tables, settings, camera, width, height)
     for name, pixels in nodes.epipolar.pack_air(air_tables()).items():
         luts.write_data_image(name, pixels)
