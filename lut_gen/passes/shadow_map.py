@@ -326,26 +326,34 @@ def render_cascades(triangles_world, camera: Camera, sun_direction, resolution: 
     # (and the cascades' gathers from contiguous rows run faster).
     triangles_world = np.asarray(triangles_world, dtype=np.float64).reshape(-1, 3, 3)
     light = np.empty((3, 3, len(triangles_world)))
-    for vertex in range(3):
-        np.matmul(frame, triangles_world[:, vertex, :].T, out=light[:, vertex])
-    x, y, d = light
-    low = _least(x), _least(y)                      # light-space boxes, once
-    high = _greatest(x), _greatest(y)
     depths = np.empty((len(centers), resolution, resolution), dtype=np.float32)
+    boxes = {}
+
+    def to_light(vertex):
+        np.matmul(frame, triangles_world[:, vertex, :].T, out=light[:, vertex])
+
+    def box(axis):                                  # light-space boxes, once
+        boxes[axis] = _least(light[axis]), _greatest(light[axis])
 
     def rasterise(i):
+        (low_x, high_x), (low_y, high_y) = boxes[0], boxes[1]
+        low, high = (low_x, low_y), (high_x, high_y)
         c, h = centers[i], halves[i]
-        _rasterize(depths[i], x, y, d, low, high, c, h, np.flatnonzero(_overlapping(low, high, c, h)))
+        _rasterize(depths[i], light[0], light[1], light[2], low, high, c, h,
+                   np.flatnonzero(_overlapping(low, high, c, h)))
 
-    # The outer cascades first: they hold the most triangles, so the threads end together.
-    order = range(len(centers))
+    # The outer cascades first: nested, they hold the most triangles (the forest's took 0.02
+    # to 0.16 s from the inner to the outer), so that the threads end together.
+    stages = ((to_light, range(3)), (box, range(2)), (rasterise, reversed(range(len(centers)))))
     if threads <= 1:
-        for i in order:
-            rasterise(i)
+        for work, items in stages:
+            for item in items:
+                work(item)
     else:
         with ThreadPoolExecutor(min(threads, len(centers)), thread_name_prefix="OLS shadow cascades") as pool:
-            for done in [pool.submit(rasterise, i) for i in order]:
-                done.result()
+            for work, items in stages:
+                for done in [pool.submit(work, item) for item in items]:
+                    done.result()
     return ShadowCascades(frame, centers, halves, splits[1:], depths)
 
 

@@ -45,3 +45,6 @@ def test_instances_placed_on_threads_equal_the_serial_placing(addon_package):
     threaded = shadow_maps.scene_triangles(depsgraph, threads=3)
     assert len(serial) >= 900 * 8 and np.ptp(serial[..., 0]) > 100.0
     np.testing.assert_array_equal(threaded, serial)
+    for obj in bpy.context.scene.objects:
+        obj.visible_shadow = False                          # nothing casts: no threads to start
+    assert shadow_maps.scene_triangles(bpy.context.evaluated_depsgraph_get(), threads=3).shape == (0, 3, 3)

@@ -54,7 +54,7 @@ def scene_triangles(depsgraph, threads: int = 1) -> np.ndarray:
         pieces = max(1, min(threads, len(matrices) // 256))      # a thread's share worth its start
         bounds = np.linspace(0, len(matrices), pieces + 1).astype(int)
         parts += [(corners, matrices[a:b], out[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
-    if threads <= 1 or len(parts) == 1:
+    if threads <= 1 or len(parts) <= 1:
         for part in parts:
             _place(*part)
     else:
