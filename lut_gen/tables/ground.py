@@ -84,14 +84,16 @@ class GroundSource:
         self._reflected = ((self.albedo / math.pi) * self.transmittance[:, None, :, None, :]).astype(np.float32)
         self._weights_for = None        # (cos_sun_view, i_s, w_s) of _sun_weights
 
-    def radiance(self, irradiance, cos_sun_view) -> np.ndarray:
+    def radiance(self, irradiance, cos_sun_view, rows=slice(None)) -> np.ndarray:
         """(h, s, mu, az, C) radiance of the ground lit with ``irradiance`` (s, C) on the sun
-        nodes, seen along the sphere directions; ``cos_sun_view`` (s, mu, az)."""
+        nodes, seen along the sphere directions; ``cos_sun_view`` (s, mu, az). ``rows``: the
+        heights (a slice of the grid's)."""
         i_s, w_s = self._sun_weights(cos_sun_view)
+        i_s, w_s = i_s[rows], w_s[rows]
         irradiance = np.asarray(irradiance, dtype=np.float32)
         low = irradiance[i_s]
         lit = low + (irradiance[i_s + 1] - low) * w_s[..., None]
-        lit *= self._reflected
+        lit *= self._reflected[rows]
         return lit
 
     def _sun_weights(self, cos_sun_view):
