@@ -44,8 +44,8 @@ from ..model.profiles import ozone_density
 from ..model.spectrum import Media, bake_media, spectral_resample_matrix
 from .ground import GroundSource
 from ..model.geometry import clustered_nodes, distance_to_sphere_exit, radius_along, ray_length
-from .interpolation import (axis_weights, floored_log, gather, geometric_lerp_of_logs, packed_rows, resample_matrix,
-                            resample_sun_geometric)
+from .interpolation import (axis_weights, gather, geometric_lerp_of_logs, packed_floored_logs, packed_rows,
+                            resample_matrix, resample_sun_geometric)
 from .optical_depth import EARTH_HIT_NET_DENSITY, below_first_row_factors, fog_column_scale, lowest_height
 from .lookup import Luts
 
@@ -274,6 +274,11 @@ class RayNodes:
     weight_mie: np.ndarray        # (rays, K, C) same with rho_M
     weight_fog: Optional[np.ndarray] = None   # same with rho_F (None without fog)
 
+    def rays(self, which) -> "RayNodes":
+        """The nodes of some of the rays (an index or slice of the first axis)."""
+        return RayNodes(self.s[which], self.radius[which], self.weight_rayleigh[which], self.weight_mie[which],
+                        None if self.weight_fog is None else self.weight_fog[which])
+
 
 # Share of a view ray's nodes spread evenly over its fog column (the rest keep the clear sky's
 # spacing): a fog 50 m thick fills the first few metres of an upward ray whose nodes are 1.5 km
@@ -407,10 +412,17 @@ def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.
     out_m = np.empty((n_h, n_a, n_s, n_t, channels), dtype=np.float32)
     out_f = np.empty((n_h, n_a, n_s, n_t, channels), dtype=np.float32) if fog else None
     tasks = _ray_batches(n_h, n_a, k_nodes * n_s * n_t * max(1, channels // 3))
+    # The view rays' nodes, a height's rays at a time (2 rays a call spent 1.4 s of one core
+    # in numpy's per-call overhead).
+    nodes_at = [None] * n_h
+
+    def find_nodes(i):
+        nodes_at[i] = view_ray_nodes(params, media, heights[i], cos_view[i], above, k_nodes, SINGLE_SUBSTEPS)
+    _parallel_rows(find_nodes, n_h, lambda stage, fraction: progress(stage, 0.0), "single scattering")
 
     def fill(task):
         i, rays = tasks[task]
-        nodes = view_ray_nodes(params, media, heights[i], cos_view[i][rays], above[rays], k_nodes, SINGLE_SUBSTEPS)
+        nodes = nodes_at[i].rays(rays)
         n_rays = len(nodes.s)
         ct = par.clamp_sun_view(cos_view[i][rays, None, None], cos_sun[None, :, None], cos_sun_view[None, None, :])
         node_h = nodes.radius - params.earth_radius
@@ -434,7 +446,8 @@ def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.
         for m in range(media_used):
             np.multiply(low[..., 4 + m], wc, out=sun_net[m])
             sun_net[m] += low[..., m]
-            sun_net[m] *= scale_low[m]
+            if np.any(scale_low[m] != 1.0):          # only rays with nodes below the first row
+                sun_net[m] *= scale_low[m]
             np.multiply(high[..., 4 + m], wc, out=upper)
             upper += high[..., m]
             upper *= scale_high[m]
@@ -723,7 +736,7 @@ def _integrate_order(params, media: Media, dims_j, j_table, progress: Progress, 
         slab = sum(w * j_table[ih, ia].transpose(0, 1, 3, 2, 4) for ih, ia, w in corners)
         # Blended geometrically along the sun zenith, from the slab's logs (one per entry, not
         # two per look-up: a third of the orders' time went to those logs).
-        packed, width = packed_rows(floored_log(slab).reshape(-1, j_table.shape[-1]))
+        packed, width = packed_floored_logs(slab)
         j_nodes = geometric_lerp_of_logs(gather(packed, width, below), gather(packed, width, below + 1), w_s)
         # One sum per medium: a single einsum over (a, K, s, t, media, C) took 2.5x as long.
         scattered = np.einsum("akstc,akc->astc", j_nodes[..., :channels], ray_weights[..., :channels])
