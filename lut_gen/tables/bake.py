@@ -44,8 +44,8 @@ from ..model.profiles import ozone_density
 from ..model.spectrum import Media, bake_media, spectral_resample_matrix
 from .ground import GroundSource
 from ..model.geometry import clustered_nodes, distance_to_sphere_exit, radius_along, ray_length
-from .interpolation import (axis_weights, gather, geometric_lerp_of_logs, packed_floored_logs, packed_rows,
-                            resample_matrix, resample_sun_geometric)
+from .interpolation import (ABSOLUTE_FLOOR, axis_weights, gather, geometric_lerp_of_logs, packed_rows,
+                            resample_matrix, resample_separable, resample_sun_geometric)
 from .optical_depth import EARTH_HIT_NET_DENSITY, below_first_row_factors, fog_column_scale, lowest_height
 from .lookup import Luts
 
@@ -728,15 +728,27 @@ def _integrate_order(params, media: Media, dims_j, j_table, progress: Progress, 
     channels = media.channels
     n_media = j_table.shape[-1] // channels
     out = np.empty((n_h, n_a, n_s, n_t, channels), dtype=np.float32)
+    # J~ sun-view major and padded to whole gather records once per order, so each node's slab
+    # is copied out contiguous and its logs are taken in place.
+    n_j = j_table.shape[-1]
+    width = next(w for w in (4, 8, 16, n_j) if w >= n_j)
+    j_rows = np.zeros((n_h, n_a, n_t, n_s, width), np.float32)
+    j_rows[..., :n_j] = j_table.transpose(0, 1, 3, 2, 4)
+    record = np.dtype([("v", np.float32, (width,))])
 
     def fill(task):
         i, rays, corners, sun, ray_weights, inverse_phase = geometry.item(task)
         below, w_s = geometry.sun_rows(sun)
-        # Slab of J~ at each node's (height, view zenith), sun-view major: (a, K, t, s, media x C).
-        slab = sum(w * j_table[ih, ia].transpose(0, 1, 3, 2, 4) for ih, ia, w in corners)
+        # Slab of J~ at each node's (height, view zenith), sun-view major: (a, K, t, s, width).
+        slab = None
+        for ih, ia, w in corners:
+            corner = j_rows[ih, ia]
+            corner *= w
+            slab = corner if slab is None else slab.__iadd__(corner)
         # Blended geometrically along the sun zenith, from the slab's logs (one per entry, not
         # two per look-up: a third of the orders' time went to those logs).
-        packed, width = packed_floored_logs(slab)
+        np.maximum(slab, ABSOLUTE_FLOOR, out=slab)
+        packed = np.log(slab, out=slab).reshape(-1, width).view(record).reshape(-1)
         j_nodes = geometric_lerp_of_logs(gather(packed, width, below), gather(packed, width, below + 1), w_s)
         # One sum per medium: a single einsum over (a, K, s, t, media, C) took 2.5x as long.
         scattered = np.einsum("akstc,akc->astc", j_nodes[..., :channels], ray_weights[..., :channels])
@@ -816,9 +828,20 @@ def _resample_on_cores(table: np.ndarray, matrices, channels: np.ndarray, floor:
     n_t = table.shape[3]
     parts = [part for part in np.array_split(np.arange(n_t), min(n_t, _workers())) if len(part)]
 
+    linear_axes = [m if axis < 2 else None for axis, m in enumerate(matrices)]
+    sun_axis = [m if axis == 2 else None for axis, m in enumerate(matrices)]
+
+    def mix(chunk):
+        chunk = np.ascontiguousarray(chunk)
+        return (chunk.reshape(-1, chunk.shape[-1]) @ channels).reshape(chunk.shape[:-1] + (channels.shape[1],))
+
     def one(part):
-        chunk = np.ascontiguousarray(table[:, :, :, part[0]:part[-1] + 1])
-        chunk = (chunk.reshape(-1, chunk.shape[-1]) @ channels).reshape(chunk.shape[:-1] + (channels.shape[1],))
+        chunk = table[:, :, :, part[0]:part[-1] + 1]
+        if floor is None and scale is None:
+            # The channel mix commutes with the linear height and view axes: after them, on a
+            # quarter of the entries.
+            return resample_sun_geometric(mix(resample_separable(chunk, linear_axes)), sun_axis)
+        chunk = mix(chunk)
         if floor is not None:
             np.maximum(chunk, np.float32(floor), out=chunk)
         if scale is not None:

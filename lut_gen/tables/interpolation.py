@@ -33,21 +33,6 @@ def packed_rows(table: np.ndarray):
     return np.ascontiguousarray(rows).view(record).reshape(-1), width
 
 
-def packed_floored_logs(table: np.ndarray):
-    """packed_rows(floored_log(table)) written straight into the padded rows: the log and the
-    padding copy were two passes over each order's slabs."""
-    rows = table.reshape(-1, table.shape[-1])
-    channels = rows.shape[1]
-    width = next(w for w in (4, 8, 16, channels) if w >= channels)
-    out = np.empty((rows.shape[0], width), np.float32)
-    logs = out[:, :channels]
-    np.maximum(rows, ABSOLUTE_FLOOR, out=logs)
-    np.log(logs, out=logs)
-    out[:, channels:] = LOG_ABSOLUTE_FLOOR
-    record = np.dtype([("v", np.float32, (width,))])
-    return out.view(record).reshape(-1), width
-
-
 def gather(packed: np.ndarray, width: int, index: np.ndarray) -> np.ndarray:
     """Rows of a packed table at integer ``index`` (any shape) as (*index.shape, width) float32."""
     return np.take(packed, index.reshape(-1)).view(np.float32).reshape(index.shape + (width,))
