@@ -239,15 +239,23 @@ def _row_spans(planes, box: _Boxes, rows: int):
     oy = np.arange(rows, dtype=np.float64)
     lower = np.zeros((len(box.height), rows))
     upper = np.where(oy < box.height[:, None], (box.width - 1.0)[:, None], -1.0)
+    bound = np.empty_like(lower)
     eps = -1e-7
     for a, b, c in planes:
-        rest = eps - b[:, None] * oy - c[:, None]                                      # a x >= rest
-        # An edge bounds the span from below (a > 0) or above (a < 0); the other bound's
-        # divisor is NaN, which fmax / fmin skip. A row edge (a == 0) empties the rows where
-        # rest > 0: rest / -0.0 is -inf there (+inf or NaN elsewhere).
+        # a x >= eps - b y - c: an edge bounds the span from below (a > 0) or above (a < 0) at
+        # x = (eps - c) / a - (b / a) y: a multiply-add per row and triangle (a division per
+        # row for each bound, NaN-masked for the other, took 15% longer).
         with np.errstate(divide="ignore", invalid="ignore"):
-            lower = np.fmax(lower, rest / np.where(a > 0, a, np.nan)[:, None])
-            upper = np.fmin(upper, rest / np.where(a < 0, a, np.where(a == 0, -0.0, np.nan))[:, None])
+            inverse = 1.0 / a
+            np.multiply((-b * inverse)[:, None], oy, out=bound)
+            bound += ((eps - c) * inverse)[:, None]
+        np.maximum(lower, bound, out=lower, where=(a > 0)[:, None])
+        np.minimum(upper, bound, out=upper, where=(a < 0)[:, None])
+        flat = np.flatnonzero(a == 0)
+        if len(flat):
+            # A row edge empties the rows where eps - b y - c > 0.
+            rest = eps - b[flat, None] * oy - c[flat, None]
+            upper[flat] = np.where(rest > 0, -1.0, upper[flat])
     x_lo = np.ceil(lower - 1e-9).astype(np.int64)
     x_hi = np.floor(np.maximum(upper, -1.0) + 1e-9).astype(np.int64)
     return x_lo, np.maximum(x_hi - x_lo + 1, 0)
