@@ -66,23 +66,39 @@ def quadrature_net_density(params, start, end) -> np.ndarray:
     return np.sum(density * GAUSS_WEIGHTS[:, None], axis=-2) * (0.5 * length)[..., None]
 
 
-def segment_transmittance(luts: Luts, start, end) -> np.ndarray:
-    """(..., 3) transmittance of the atmosphere between ``start`` and ``end``."""
-    start, end = np.broadcast_arrays(np.asarray(start, float), np.asarray(end, float))
-    direction = end - start
-    length = np.linalg.norm(direction, axis=-1, keepdims=True)
-    direction = direction / np.maximum(length, 1e-9)
-    forward_start, hits_from_start = _net_density(luts, start, direction)
+def segment_transmittance(luts: Luts, start, end, direction=None) -> np.ndarray:
+    """(..., 3) transmittance of the atmosphere between ``start`` and ``end``. ``direction``:
+    the unit direction from start to end where the caller has it (as the node group takes it),
+    broadcastable; the start's look-ups are then made once per start and direction (the
+    epipolar in-scattering tables' rays share one per ray, not one per distance)."""
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    length = np.linalg.norm(end - start, axis=-1, keepdims=True)
+    if direction is None:
+        start, end = np.broadcast_arrays(start, end)
+        direction = (end - start) / np.maximum(length, 1e-9)
+        forward_start, hits_from_start = _net_density(luts, start, direction)
+        backward_start, _ = _net_density(luts, start, -direction)
+        start_horizon = _horizon_distance(luts, start, direction)
+    else:
+        direction = np.asarray(direction, float)
+        shape = np.broadcast_shapes(start.shape, end.shape, direction.shape)
+        forward_start, hits_from_start = _net_density(luts, start, direction)
+        backward_start, _ = _net_density(luts, start, -direction)
+        forward_start, backward_start = (np.broadcast_to(v, shape[:-1] + v.shape[-1:])
+                                         for v in (forward_start, backward_start))
+        hits_from_start, start_horizon = (np.broadcast_to(v, shape[:-1]) for v in
+                                          (hits_from_start, _horizon_distance(luts, start, direction)))
+        start, end, direction = (np.broadcast_to(v, shape) for v in (start, end, direction))
+        length = np.broadcast_to(length, shape[:-1] + (1,))
     forward_end, hits_from_end = _net_density(luts, end, direction)
     backward_end, _ = _net_density(luts, end, -direction)
-    backward_start, _ = _net_density(luts, start, -direction)
     # Where the forward ray from either end runs into the ground its table entry is the 1e20
     # marker; the reversed ray then gives the difference (near-horizontal segments).
     hits = hits_from_start | hits_from_end
     net = np.where(hits[..., None], backward_end - backward_start, forward_start - forward_end)
     # The difference of two large net densities is ill-conditioned for rays that graze the
     # horizon (the table changes fastest there): integrate along the segment instead.
-    horizon = np.where(hits, _horizon_distance(luts, end, -direction), _horizon_distance(luts, start, direction))
+    horizon = np.where(hits, _horizon_distance(luts, end, -direction), start_horizon)
     weight = _smoothstep(*QUADRATURE_BAND, horizon)
     near_horizon = weight < 1.0                 # quadrature only where it counts (few segments)
     if near_horizon.any():

@@ -111,7 +111,7 @@ def build(luts: Luts, frame: EpipolarFrame, camera_position, needed=None) -> Air
             continue
         start, direction = camera[rays], ray_directions[rays]              # (m, 1, 3), (m, 1 or K, 3)
         points = start + direction * t[:, None]
-        transmittance = aerial.segment_transmittance(luts, start, points)
+        transmittance = aerial.segment_transmittance(luts, start, points, direction)
         # The three tables at the same points: one set of look-up coordinates and corners.
         found = aerial.section_inscattering(luts, start, points, direction, frame.sun, names, 1.0, transmittance,
                                             phase_free=True)
