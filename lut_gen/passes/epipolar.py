@@ -350,13 +350,15 @@ def march(frame: EpipolarFrame, directions, cascades: ShadowCascades, camera: Ca
 
 def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera, settings: EpipolarSettings,
                  smooth: bool = True, best_search: bool = True, first_cascade: int = 0, luts=None,
-                 integrate: bool = False, clouds=None, integral=None, needed=None) -> EpipolarTables:
+                 integrate: bool = False, clouds=None, integral=None, needed=None, maps=None) -> EpipolarTables:
     """March the initial samples of every slice, refine between marched neighbours that
     disagree, and interpolate the rest along each slice (``integral``: as for march).
     ``needed`` ((slices + 1, samples) bool, screen_nodes): the nodes to build; then only the
     spans between initial samples that hold one are marched and refined, which gives those
     nodes the values the whole grid's build gives them (a node's value comes from its span's
-    ends and bisection alone). The other nodes hold 0 unless marched."""
+    ends and bisection alone). The other nodes hold 0 unless marched. ``maps``: the cascades'
+    min/max maps when the caller built them (min_max.fill_cascade while rasterising), else
+    built here as the settings ask."""
     settings = settings.checked()
     nodes = frame.node_directions()
     n_slices, n_samples = nodes.shape[:2]
@@ -372,7 +374,10 @@ def build_tables(frame: EpipolarFrame, cascades: ShadowCascades, camera: Camera,
     geometry_length = lit_length if clouds is None else np.zeros_like(lit_length)
     integrated = np.zeros((n_slices, n_samples, K, 3), dtype=np.float32) if integrate else None
     marched = np.zeros((n_slices, n_samples), dtype=bool)
-    maps = min_max.build(cascades, smooth) if settings.use_min_max else None
+    if not settings.use_min_max:
+        maps = None
+    elif maps is None or maps.smooth != smooth:
+        maps = min_max.build(cascades, smooth)
 
     def run(mask):
         idx = np.nonzero(mask & ~marched)

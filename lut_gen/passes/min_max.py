@@ -33,6 +33,22 @@ def build(cascades: ShadowCascades, smooth: bool) -> MinMaxMaps:
     return MinMaxMaps(_block_reduce(depths, np.maximum, smooth), _block_reduce(depths, np.minimum, smooth), smooth)
 
 
+def allocate(count: int, resolution: int, smooth: bool) -> MinMaxMaps:
+    """Maps for ``count`` cascades of ``resolution`` texels, to be filled cascade by cascade
+    (fill_cascade): the same maps as build's once every cascade is in."""
+    blocks = -(-resolution // BLOCK)
+    return MinMaxMaps(np.empty((count, blocks, blocks), np.float32), np.empty((count, blocks, blocks), np.float32),
+                      smooth)
+
+
+def fill_cascade(maps: MinMaxMaps, index: int, depths: np.ndarray):
+    """Cascade ``index``'s part of ``maps`` from its map (res, res) (a render_cascades
+    on_cascade: each cascade's blocks reduce on its own, so the maps equal build's)."""
+    depths = np.asarray(depths, dtype=np.float32)[None]
+    maps.high[index] = _block_reduce(depths, np.maximum, maps.smooth)[0]
+    maps.low[index] = _block_reduce(depths, np.minimum, maps.smooth)[0]
+
+
 def _block_reduce(depths, combine, dilate: bool) -> np.ndarray:
     """(cascades, blocks, blocks) ``combine`` (np.maximum or np.minimum) of the depths of each
     BLOCK x BLOCK block, with ``dilate`` also of the texels bordering it: a square that holds

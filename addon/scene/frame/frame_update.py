@@ -110,7 +110,7 @@ def update_frame(scene, depsgraph) -> bool:
         with blas_on_one_thread():
             casters = shadow_maps.casters(state, depsgraph)
             with _epipolar_tables(scene, node, state, casters.far) as finish_tables:
-                cascades = shadow_maps.rasterise(state, casters)
+                cascades = shadow_maps.rasterise(state, casters, getattr(finish_tables, "on_cascade", None))
                 if node.node_tree.get(names.READS_SHADOW_MAPS_KEY, True):
                     shadow_maps.write_images(cascades)
                 extra = finish_tables(cascades)

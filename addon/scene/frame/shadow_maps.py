@@ -134,13 +134,14 @@ def casters(state: frame_state.FrameState, depsgraph) -> Casters:
     return Casters(triangles, near, far_depth(state.camera, triangles, state.camera.clip_end, near))
 
 
-def rasterise(state: frame_state.FrameState, found: Casters) -> shadow_map.ShadowCascades:
-    """The cascades of ``found`` for the frame's camera, sun and settings."""
+def rasterise(state: frame_state.FrameState, found: Casters, on_cascade=None) -> shadow_map.ShadowCascades:
+    """The cascades of ``found`` for the frame's camera, sun and settings (``on_cascade``: as
+    shadow_map.render_cascades takes it)."""
     settings = state.settings
     return shadow_map.render_cascades(found.triangles, state.camera, state.sun_direction,
                                       int(settings.shadow_map_resolution), settings.num_cascades,
                                       settings.cascade_partitioning_factor, found.near, found.far,
-                                      threads=process_tuning.cores())
+                                      threads=process_tuning.cores(), on_cascade=on_cascade)
 
 
 def render(state: frame_state.FrameState, depsgraph) -> shadow_map.ShadowCascades:
