@@ -153,6 +153,22 @@ def test_segments_along_the_horizon_keep_their_extinction(default_luts, distance
     assert np.abs(got - want).max() < 0.01
 
 
+def test_segment_transmittance_given_the_direction_equals_it_found(default_luts):
+    """segment_transmittance(start, end, direction): the start's look-ups made once per ray
+    (the epipolar in-scattering tables give each ray's direction, as the node group takes it)
+    equal those made per point from end - start, on rays with several distances each, across
+    the horizon included."""
+    camera, ends = horizon_sweep(1.0)
+    rays = ends - camera                                                   # unit directions
+    distances = np.array([500.0, 3000.0, 15000.0, 60000.0])
+    points = camera + rays[:, None, :] * distances[None, :, None]          # (rays, distances, 3)
+    found = aerial.segment_transmittance(default_luts, camera[None, None, :], points)
+    given = aerial.segment_transmittance(default_luts, camera[None, None, :], points, rays[:, None, :])
+    assert given.shape == found.shape == points.shape
+    assert found.min() < 0.9 and found.max() > 0.1                         # not all clear or opaque
+    np.testing.assert_allclose(given, found, rtol=1e-9, atol=1e-12)
+
+
 @pytest.mark.parametrize("distance", [3000.0, 8000.0, 30000.0])
 def test_inscattering_has_no_step_at_the_horizon(default_luts, distance):
     """Eq. (8) across the camera's horizon: within 10% of the brute-force segment integral and

@@ -177,3 +177,22 @@ def test_cascades_rasterised_on_threads_equal_the_serial_ones():
     threaded = sm.render_cascades(tris, camera, sun, 128, 4, 0.7, 1.0, 300.0, threads=3)
     assert (serial.depths > sm.EMPTY_DEPTH).mean() > 0.3
     np.testing.assert_array_equal(threaded.depths, serial.depths)
+
+
+def test_min_max_maps_filled_while_rasterising_equal_those_built_after():
+    """render_cascades(on_cascade=min_max.fill_cascade): each cascade's min/max maps built on
+    its rasterising thread equal min_max.build over the finished cascades, smooth or not, and
+    the maps decide points (some lit, some shadowed) rather than being empty."""
+    from lut_gen.passes import min_max
+    sun = np.array([0.3, -0.5, 0.4])
+    camera = sm.Camera(np.array([0.0, -60.0, 12.0]), np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]]),
+                       (0.6, 0.35), 500.0)
+    tris = heightfield_triangles(n=40, size=200.0, seed=5)
+    for smooth in (True, False):
+        maps = min_max.allocate(4, 100, smooth)        # 100 texels: not a multiple of the block
+        cascades = sm.render_cascades(tris, camera, sun, 100, 4, 0.7, 1.0, 300.0, threads=2,
+                                      on_cascade=lambda i, depths: min_max.fill_cascade(maps, i, depths))
+        built = min_max.build(cascades, smooth)
+        np.testing.assert_array_equal(maps.high, built.high)
+        np.testing.assert_array_equal(maps.low, built.low)
+        assert np.all(maps.high >= maps.low) and np.ptp(maps.high) > 1.0
