@@ -41,7 +41,7 @@ from .process_tuning import blas_on_one_thread, tuned_for_bake
 from . import parameterization as par
 from ..model.atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
 from ..model.profiles import ozone_density
-from ..model.spectrum import Media, bake_media, spectral_resample_matrix
+from ..model.spectrum import Media, bake_media, spectra_to_rgb, spectral_resample_matrix
 from .ground import GroundSource
 from ..model.geometry import clustered_nodes, distance_to_sphere_exit, radius_along, ray_length
 from .interpolation import (ABSOLUTE_FLOOR, axis_weights, gather, geometric_lerp_of_logs, packed_rows,
@@ -317,8 +317,49 @@ def _with_fog_nodes(params: AtmosphereParams, r, c, length, base):
     return nodes
 
 
+# Widest ratio of a node triple's two spacings that keeps its parabola (beyond it, or where two
+# fog nodes coincide, the triple's intervals fall back to hat functions).
+QUADRATIC_SPACING_RATIO = 8.0
+
+
+def node_basis(s, tau, quadratic: bool):
+    """(rays, K-1, M+1, 3) weights that interpolate a function known at the nodes s (rays, K)
+    at the substeps tau (M+1,) of every interval, and (K-1,) the first node of each interval's
+    triple. Hat functions are the trapezoid rule; with ``quadratic`` each interval takes the
+    parabola through a triple of nodes (Simpson's rule on interval pairs, the last interval
+    sharing its neighbour's parabola). A low sun's transmittance is convex along a view ray
+    toward it, and linear between the 32 nodes read its single scattering 6-10% too bright at
+    the tables' own nodes; the parabolas cost nothing per sun angle, since they do not depend
+    on it."""
+    n_rays, n_nodes = s.shape
+    intervals = n_nodes - 1
+    k = np.arange(intervals)
+    start = k.copy()
+    if quadratic and n_nodes >= 3:
+        start = np.where(k % 2 == 0, k, k - 1)
+        start = np.minimum(start, n_nodes - 3)
+    offset = k - start                                         # 0: interval (a, b), 1: (b, c)
+    hat = np.zeros((intervals, len(tau), 3))
+    hat[k, :, offset] = 1.0 - tau
+    hat[k, :, offset + 1] = tau
+    basis = np.broadcast_to(hat, (n_rays,) + hat.shape)
+    if not (quadratic and n_nodes >= 3):
+        return basis.astype(np.float32), start
+    a, b, c = s[:, start], s[:, start + 1], s[:, start + 2]    # (rays, K-1)
+    left, right = b - a, c - b
+    narrow, wide = np.minimum(left, right), np.maximum(left, right)
+    ok = narrow > wide / QUADRATIC_SPACING_RATIO
+    x = s[:, :-1, None] + (s[:, 1:, None] - s[:, :-1, None]) * tau                    # (rays, K-1, M+1)
+    a, b, c, left, right = (v[..., None] for v in (a, b, c, left, right))
+    safe = lambda d: np.where(ok[..., None], d, 1.0)
+    quad = np.stack([(x - b) * (x - c) / safe(left * (left + right)),
+                     -(x - a) * (x - c) / safe(left * right),
+                     (x - a) * (x - b) / safe(right * (left + right))], axis=-1)
+    return np.where(ok[..., None, None], quad, basis).astype(np.float32), start
+
+
 def view_ray_nodes(params: AtmosphereParams, media: Media, height: float, cos_view, above, n_nodes: int,
-                   substeps: int, uniform_share: float = NODE_UNIFORM_SHARE) -> RayNodes:
+                   substeps: int, uniform_share: float = NODE_UNIFORM_SHARE, quadratic: bool = False) -> RayNodes:
     r = np.full(len(cos_view), params.earth_radius + height)
     c = np.asarray(cos_view, dtype=np.float64)
     length = ray_length(params, r, c, ~np.asarray(above))
@@ -340,16 +381,20 @@ def view_ray_nodes(params: AtmosphereParams, media: Media, height: float, cos_vi
     view_trans = np.exp(-(inside + before[:, :, None, :]))
     trap = np.full(substeps + 1, 1.0, dtype=np.float32)
     trap[[0, -1]] = 0.5
-    hat_right = tau.astype(np.float32)
+    basis, start = node_basis(s, tau, quadratic)
+    basis = basis * trap[:, None]
+    # Each interval's triple onto the ray's nodes (a hat's third node has no weight, and the
+    # last interval's would lie past the ray).
+    onto_nodes = np.zeros((n_nodes - 1, 3, n_nodes), np.float32)
+    for j in range(3):
+        onto_nodes[np.arange(n_nodes - 1), j, np.minimum(start + j, n_nodes - 1)] = 1.0
+    onto_nodes = onto_nodes.reshape(-1, n_nodes)
     weights = []
     for medium in ((0, 1, 3) if fog else (0, 1)):
-        g = dens[..., medium:medium + 1] * view_trans * ds * trap[None, None, :, None]
-        right = np.einsum("rkmc,m->rkc", g, hat_right)
-        left = g.sum(axis=2) - right
-        w = np.zeros((len(r), n_nodes, media.channels), dtype=np.float32)
-        w[:, :-1] += left
-        w[:, 1:] += right
-        weights.append(w)
+        g = dens[..., medium:medium + 1] * view_trans * ds                       # (rays, K-1, M+1, C)
+        per_triple = np.matmul(g.transpose(0, 3, 1, 2)[..., None, :], basis[:, None, :, :, :])   # (rays, C, K-1, 1, 3)
+        w = per_triple.reshape(len(r), media.channels, -1) @ onto_nodes                         # (rays, C, K)
+        weights.append(np.ascontiguousarray(w.transpose(0, 2, 1)))
     return RayNodes(s, radius_along(r[:, None], c[:, None], s), *weights)
 
 
@@ -417,7 +462,8 @@ def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.
     nodes_at = [None] * n_h
 
     def find_nodes(i):
-        nodes_at[i] = view_ray_nodes(params, media, heights[i], cos_view[i], above, k_nodes, SINGLE_SUBSTEPS)
+        nodes_at[i] = view_ray_nodes(params, media, heights[i], cos_view[i], above, k_nodes, SINGLE_SUBSTEPS,
+                                     quadratic=True)
     _parallel_rows(find_nodes, n_h, lambda stage, fraction: progress(stage, 0.0), "single scattering")
 
     def fill(task):
@@ -1003,6 +1049,19 @@ def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", ord
         return _bake_stages(params, res, orders, progress or (lambda stage, fraction: None), tail)
 
 
+def _single_to_rgb(media, table: np.ndarray) -> np.ndarray:
+    """Single scattering's spectra to RGB (spectrum.spectra_to_rgb), on every core; the Sample
+    2013 media's three wavelengths are the channels themselves."""
+    if not media.wavelengths_nm:
+        return table @ media.to_rgb.T.astype(np.float32)
+    out = np.empty(table.shape[:-1] + (3,), np.float32)
+
+    def convert(i):
+        out[i] = spectra_to_rgb(table[i], media.wavelengths_nm)
+    _parallel_rows(convert, len(table), lambda stage, fraction: None, "colour conversion")
+    return out
+
+
 def _bake_stages(params: AtmosphereParams, res: Resolution, orders, report: Progress, tail: bool) -> Luts:
     timings = {}
 
@@ -1029,10 +1088,9 @@ def _bake_stages(params: AtmosphereParams, res: Resolution, orders, report: Prog
     t0 = time.perf_counter()
     # Bilinear cell arithmetic leaves values of ~1e-20 below zero where radiance is zero; the
     # colour conversion's negative lobes can do the same to a near-black spectrum.
-    to_rgb = media.to_rgb.T.astype(np.float32)
     scale = par.grid_scale(params, res.scattering).astype(np.float32)
-    single, single_mie = (np.maximum(table @ to_rgb, 0.0) / scale for table in (single_rayleigh, single_mie))
-    single_fog = None if single_fog is None else np.maximum(single_fog @ to_rgb, 0.0) / scale
+    single, single_mie, single_fog = (None if table is None else np.maximum(_single_to_rgb(media, table), 0.0) / scale
+                                      for table in (single_rayleigh, single_mie, single_fog))
     higher = np.maximum(higher, 0.0)
     timings["colour conversion"] = time.perf_counter() - t0
 
