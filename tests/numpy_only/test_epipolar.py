@@ -36,20 +36,23 @@ from occluders import CAMERA, SCALE, SUN_STRENGTH, Scene, compare, fence, look_a
 
 @pytest.mark.parametrize("name, boxes", [("pillars", pillars()), ("fence", fence())])
 @pytest.mark.parametrize("elevation, azimuth", [(4.0, 5.0), (12.0, -20.0)])
-def test_epipolar_matches_brute_force_behind_thin_occluders(draft_luts, name, boxes, elevation, azimuth):
+def test_epipolar_matches_brute_force_behind_thin_occluders(draft_luts, default_luts, name, boxes, elevation,
+                                                          azimuth):
     """Low sun behind pillars or a fence: the shafts through the gaps. The bar: PSNR >= 40 dB
     at the same steps, shadow maps and modes."""
     scene = Scene(boxes, CAMERA, sun_at(elevation, azimuth), 160, 90)
     quality, brute, epi = compare(scene, draft_luts, num_integration_steps=32, epipolar_slices=256,
                                   samples_per_slice=128)
-    unshadowed = scene.shafts(draft_luts, enable_light_shafts=False)
+    # Shafts are there, in the default tables: the darkening is a small difference of two large
+    # sums, and the draft's coarse sun-view axis reads it 5x too small at sun 4 deg (the fence
+    # 2.9-3.7% against 17%). Measured with the default tables: pillars 22% / 41% of the air
+    # light at sun 4 / 12 deg, fence 17% / 26%.
+    brute = scene.shafts(default_luts, num_integration_steps=32)
+    unshadowed = scene.shafts(default_luts, enable_light_shafts=False)
     camera = np.broadcast_to(scene.camera.position, scene.position.shape)
-    air = aerial.segment_inscattering(draft_luts, camera, scene.position, scene.sun) * SUN_STRENGTH * SCALE
+    air = aerial.segment_inscattering(default_luts, camera, scene.position, scene.sun) * SUN_STRENGTH * SCALE
     darker = (unshadowed - brute)[scene.geometry].sum()
-    # Shafts are there. Measured: pillars 9.9% / 39% of the air light at sun 4 / 12 deg, fence
-    # 4.7% / 24% (the fence's was 9.7% at 4 deg before the optical-depth table's Mie column
-    # lost its 1% trapezoid excess: the darkening is a small difference of two large sums).
-    assert darker > 0.03 * air[scene.geometry].sum(), darker / air[scene.geometry].sum()
+    assert darker > 0.1 * air[scene.geometry].sum(), darker / air[scene.geometry].sum()
     print(name, elevation, azimuth, "PSNR", quality)
     assert quality >= 40.0, quality
 
