@@ -85,7 +85,6 @@ def main():
     frame_update = module("addon.scene.frame.frame_update")
     wiring = module("addon.scene.setup.wiring")
     compositor = module("addon.scene.setup.compositor")
-    epipolar_tables = module("addon.scene.frame.epipolar_tables")
     shadow_maps = module("addon.scene.frame.shadow_maps")
     names = module("addon.scene.names")
     display = module("lut_gen.verify.display")
@@ -96,7 +95,7 @@ def main():
     timer.wrap(module("lut_gen.passes.epipolar"), "build_tables", "lit-length tables")
     timer.wrap(module("lut_gen.passes.epipolar_air"), "build", "in-scattering tables")
     timer.wrap(module("addon.nodes.epipolar"), "pack", "pack tables")
-    timer.wrap(epipolar_tables, "update", "epipolar total")
+    timer.wrap(frame_update, "_epipolar_tables", "epipolar total")
     timer.wrap(frame_update, "update_frame", "frame update")
 
     def configure(scene, shafts, technique="BRUTE_FORCE"):

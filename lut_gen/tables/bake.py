@@ -2,7 +2,7 @@
 
 Stages, each a pure function of AtmosphereParams:
   optical depth   net Rayleigh/Mie/ozone density from (height, cos zenith) to the top
-  single          L1, eq. (2) with the sun term, trapezoidal along the view ray, Rayleigh and
+  single          L1, eq. (2) with the sun term, parabolas between view-ray nodes, Rayleigh and
                   Mie kept apart without their phase functions (applied exactly at look-up)
   orders 2..N     J(n) = sphere integral of L(n-1) against the phase functions (eq. 1),
                   L(n) = its integral along the view ray (eq. 2); summed into "higher"
@@ -17,7 +17,7 @@ Two ideas keep this fast in numpy without giving up accuracy:
 * Product integration along view rays. The integrand of eqs. (1)-(2) is (density x view
   transmittance), which varies fast and does not depend on the sun, times a slowly varying sun
   factor (sun transmittance for L1, J / density for higher orders). The first is integrated
-  per ray on a fine grid into hat-function weights A_k; the second is evaluated only at a few
+  per ray on a fine grid into node weights A_k (lut_gen.tables.view_rays); the second is evaluated only at a few
   nodes k per ray and per sun configuration: L = sum_k A_k * f(node k).
 * The sphere integral of eq. (1) for fixed height and sun zenith is a convolution in azimuth
   with the phase function, done with real FFTs over a fixed direction grid; the discrete
@@ -40,14 +40,14 @@ import numpy as np
 from .process_tuning import blas_on_one_thread, tuned_for_bake
 from . import parameterization as par
 from ..model.atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
-from ..model.profiles import ozone_density
 from ..model.spectrum import Media, bake_media, spectra_to_rgb, spectral_resample_matrix
 from .ground import GroundSource
-from ..model.geometry import clustered_nodes, distance_to_sphere_exit, radius_along, ray_length
+from ..model.geometry import clustered_nodes, distance_to_sphere_exit, radius_along
 from .interpolation import (ABSOLUTE_FLOOR, axis_weights, gather, geometric_lerp_of_logs, packed_rows,
                             resample_matrix, resample_separable, resample_sun_geometric)
 from .optical_depth import EARTH_HIT_NET_DENSITY, below_first_row_factors, fog_column_scale, lowest_height
 from .lookup import Luts
+from .view_rays import RayNodes, density_profiles, view_ray_nodes
 
 Progress = Callable[[str, float], None]
 
@@ -196,7 +196,7 @@ def bake_optical_depth(params: AtmosphereParams, n_height: int, n_cos: int,
         s = clustered_nodes(r, cosines[None, :], length, steps).astype(np.float32)
         node_heights = _height_along(params, h, r, cosines[None, :], s)
         weights = _trapezoid_weights(s)
-        rayleigh, mie, ozone, fog = _density_profiles(params, node_heights)
+        rayleigh, mie, ozone, fog = density_profiles(params, node_heights)
         heights_clamped = np.maximum(node_heights, np.float32(0.0))
         out[sl, :, 0] = _exponential_segments_integral(rayleigh, heights_clamped, params.rayleigh_scale_height, s)
         out[sl, :, 1] = _exponential_segments_integral(mie, heights_clamped, params.mie_scale_height, s)
@@ -222,24 +222,6 @@ def _height_along(params, h, r, cos_zenith, s):
     return h.astype(np.float32) + rise / (radius_along(r, c, s).astype(np.float32) + r.astype(np.float32))
 
 
-def _densities32(params, heights):
-    """(..., 4) Rayleigh, Mie, ozone and fog densities in float32."""
-    profiles = _density_profiles(params, heights.astype(np.float32))
-    zeros = np.zeros_like(profiles[1])
-    return np.stack([zeros if p is None else p for p in profiles], axis=-1)
-
-
-def _density_profiles(params, heights):
-    """Rayleigh, Mie, ozone and fog densities as separate contiguous float32 arrays (None for an
-    ozone layer that is switched off and for no fog)."""
-    heights = np.maximum(heights, np.float32(0.0))
-    rayleigh = np.exp(heights * np.float32(-1.0 / params.rayleigh_scale_height))
-    mie = np.exp(heights * np.float32(-1.0 / params.mie_scale_height))
-    ozone = ozone_density(params, heights).astype(np.float32) if params.ozone else None
-    fog = np.exp(heights * np.float32(-1.0 / params.fog_height)) if params.has_fog else None
-    return rayleigh, mie, ozone, fog
-
-
 def _exponential_segments_integral(density, heights, scale_height: float, s):
     """Integral along the last axis of density = exp(-height / scale_height), taken as
     exponential in s between its samples (exact on a straight vertical ray). The trapezoid
@@ -261,141 +243,6 @@ def _trapezoid_weights(s):
     weights[..., :-1] += 0.5 * ds
     weights[..., 1:] += 0.5 * ds
     return weights
-
-
-# -- view rays: product-integration weights ------------------------------------------
-
-@dataclass
-class RayNodes:
-    """Nodes along a batch of view rays and the sun-independent hat-function weights."""
-    s: np.ndarray          # (rays, K) distance from the ray start
-    radius: np.ndarray     # (rays, K) distance to the Earth centre
-    weight_rayleigh: np.ndarray   # (rays, K, C) integral of rho_R * T_view * hat_k ds
-    weight_mie: np.ndarray        # (rays, K, C) same with rho_M
-    weight_fog: Optional[np.ndarray] = None   # same with rho_F (None without fog)
-
-    def rays(self, which) -> "RayNodes":
-        """The nodes of some of the rays (an index or slice of the first axis)."""
-        return RayNodes(self.s[which], self.radius[which], self.weight_rayleigh[which], self.weight_mie[which],
-                        None if self.weight_fog is None else self.weight_fog[which])
-
-
-# Share of a view ray's nodes spread evenly over its fog column (the rest keep the clear sky's
-# spacing): a fog 50 m thick fills the first few metres of an upward ray whose nodes are 1.5 km
-# apart, and the fog's own scattering then came from one or two substeps.
-FOG_NODE_SHARE = 0.5
-FOG_PREGRID = 512               # samples of the fog column that place those nodes
-FOG_NODE_MIN_DEPTH = 1e-3       # fog optical depth from which a ray gets the full share
-
-
-def _with_fog_nodes(params: AtmosphereParams, r, c, length, base):
-    """Nodes (rays, K) that keep ``base``'s spacing for (1 - share) of their count and spread
-    the rest evenly over the fog's opacity along each ray."""
-    pre = clustered_nodes(r, c, length, FOG_PREGRID)                                     # (rays, P)
-    heights = radius_along(r[:, None], c[:, None], pre) - params.earth_radius
-    density = np.exp(-np.maximum(heights, 0.0) / params.fog_height)
-    column = np.concatenate([np.zeros_like(pre[:, :1]),
-                             np.cumsum(0.5 * (density[:, 1:] + density[:, :-1]) * np.diff(pre, axis=1), axis=1)], axis=1)
-    total = column[:, -1]
-    share = FOG_NODE_SHARE * np.minimum(total * params.fog / FOG_NODE_MIN_DEPTH, 1.0)
-    # Even in the fog's opacity from the ray start, 1 - exp(-optical depth), not in its column:
-    # the same where the fog is thin, and where it is thick the nodes stay where the light
-    # seen comes from. Spread over the column, a horizontal ray 2 m up in a 1 km / 50 m fog
-    # (a column of ~22 km, 88 optical depths) had its first node 1.8 km out, seven extinction
-    # lengths, and the higher orders seen along it came out 20% too bright.
-    opacity = -np.expm1(-params.fog * column)
-    thick = opacity[:, -1] > 1e-9
-    fog_measure = np.where(thick[:, None], opacity / np.where(thick, opacity[:, -1], 1.0)[:, None],
-                           column / np.maximum(total, 1e-30)[:, None])
-    t = np.linspace(0.0, 1.0, base.shape[1])
-    nodes = np.empty_like(base)
-    for ray in range(len(base)):
-        clear_measure = np.interp(pre[ray], base[ray], t)
-        measure = (1.0 - share[ray]) * clear_measure + share[ray] * fog_measure[ray]
-        nodes[ray] = np.interp(t, measure, pre[ray])
-    nodes[:, 0], nodes[:, -1] = 0.0, length
-    return nodes
-
-
-# Widest ratio of a node triple's two spacings that keeps its parabola (beyond it, or where two
-# fog nodes coincide, the triple's intervals fall back to hat functions).
-QUADRATIC_SPACING_RATIO = 8.0
-
-
-def node_basis(s, tau, quadratic: bool):
-    """(rays, K-1, M+1, 3) weights that interpolate a function known at the nodes s (rays, K)
-    at the substeps tau (M+1,) of every interval, and (K-1,) the first node of each interval's
-    triple. Hat functions are the trapezoid rule; with ``quadratic`` each interval takes the
-    parabola through a triple of nodes (Simpson's rule on interval pairs, the last interval
-    sharing its neighbour's parabola). A low sun's transmittance is convex along a view ray
-    toward it, and linear between the 32 nodes read its single scattering 6-10% too bright at
-    the tables' own nodes; the parabolas cost nothing per sun angle, since they do not depend
-    on it."""
-    n_rays, n_nodes = s.shape
-    intervals = n_nodes - 1
-    k = np.arange(intervals)
-    start = k.copy()
-    if quadratic and n_nodes >= 3:
-        start = np.where(k % 2 == 0, k, k - 1)
-        start = np.minimum(start, n_nodes - 3)
-    offset = k - start                                         # 0: interval (a, b), 1: (b, c)
-    hat = np.zeros((intervals, len(tau), 3))
-    hat[k, :, offset] = 1.0 - tau
-    hat[k, :, offset + 1] = tau
-    basis = np.broadcast_to(hat, (n_rays,) + hat.shape)
-    if not (quadratic and n_nodes >= 3):
-        return basis.astype(np.float32), start
-    a, b, c = s[:, start], s[:, start + 1], s[:, start + 2]    # (rays, K-1)
-    left, right = b - a, c - b
-    narrow, wide = np.minimum(left, right), np.maximum(left, right)
-    ok = narrow > wide / QUADRATIC_SPACING_RATIO
-    x = s[:, :-1, None] + (s[:, 1:, None] - s[:, :-1, None]) * tau                    # (rays, K-1, M+1)
-    a, b, c, left, right = (v[..., None] for v in (a, b, c, left, right))
-    safe = lambda d: np.where(ok[..., None], d, 1.0)
-    quad = np.stack([(x - b) * (x - c) / safe(left * (left + right)),
-                     -(x - a) * (x - c) / safe(left * right),
-                     (x - a) * (x - b) / safe(right * (left + right))], axis=-1)
-    return np.where(ok[..., None, None], quad, basis).astype(np.float32), start
-
-
-def view_ray_nodes(params: AtmosphereParams, media: Media, height: float, cos_view, above, n_nodes: int,
-                   substeps: int, uniform_share: float = NODE_UNIFORM_SHARE, quadratic: bool = False) -> RayNodes:
-    r = np.full(len(cos_view), params.earth_radius + height)
-    c = np.asarray(cos_view, dtype=np.float64)
-    length = ray_length(params, r, c, ~np.asarray(above))
-    s = clustered_nodes(r, c, length, n_nodes, uniform_share)                 # (rays, K)
-    fog = media.has_fog
-    if fog:
-        s = _with_fog_nodes(params, r, c, length, s)
-    tau = np.linspace(0.0, 1.0, substeps + 1)
-    s_fine = s[:, :-1, None] + (s[:, 1:, None] - s[:, :-1, None]) * tau    # (rays, K-1, M+1)
-    h_fine = radius_along(r[:, None, None], c[:, None, None], s_fine) - params.earth_radius
-    media_used = 4 if fog else 3
-    dens = _densities32(params, h_fine)[..., :media_used]                   # (rays, K-1, M+1, media)
-    sigma = dens @ media.extinction_matrix()[:media_used].astype(np.float32)     # extinction per channel
-    ds = ((s[:, 1:] - s[:, :-1]) / substeps).astype(np.float32)[..., None, None]
-    # Optical depth from the ray start: trapezoid inside each interval plus earlier intervals.
-    inside = np.concatenate([np.zeros_like(sigma[:, :, :1]),
-                             np.cumsum(0.5 * (sigma[:, :, 1:] + sigma[:, :, :-1]) * ds, axis=2)], axis=2)
-    before = np.cumsum(inside[:, :, -1], axis=1) - inside[:, :, -1]
-    view_trans = np.exp(-(inside + before[:, :, None, :]))
-    trap = np.full(substeps + 1, 1.0, dtype=np.float32)
-    trap[[0, -1]] = 0.5
-    basis, start = node_basis(s, tau, quadratic)
-    basis = basis * trap[:, None]
-    # Each interval's triple onto the ray's nodes (a hat's third node has no weight, and the
-    # last interval's would lie past the ray).
-    onto_nodes = np.zeros((n_nodes - 1, 3, n_nodes), np.float32)
-    for j in range(3):
-        onto_nodes[np.arange(n_nodes - 1), j, np.minimum(start + j, n_nodes - 1)] = 1.0
-    onto_nodes = onto_nodes.reshape(-1, n_nodes)
-    weights = []
-    for medium in ((0, 1, 3) if fog else (0, 1)):
-        g = dens[..., medium:medium + 1] * view_trans * ds                       # (rays, K-1, M+1, C)
-        per_triple = np.matmul(g.transpose(0, 3, 1, 2)[..., None, :], basis[:, None, :, :, :])   # (rays, C, K-1, 1, 3)
-        w = per_triple.reshape(len(r), media.channels, -1) @ onto_nodes                         # (rays, C, K)
-        weights.append(np.ascontiguousarray(w.transpose(0, 2, 1)))
-    return RayNodes(s, radius_along(r[:, None], c[:, None], s), *weights)
 
 
 def _node_cos_sun(r, nodes: RayNodes, cos_sun, cos_sun_view):
@@ -463,7 +310,7 @@ def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.
 
     def find_nodes(i):
         nodes_at[i] = view_ray_nodes(params, media, heights[i], cos_view[i], above, k_nodes, SINGLE_SUBSTEPS,
-                                     quadratic=True)
+                                     NODE_UNIFORM_SHARE, quadratic=True)
     _parallel_rows(find_nodes, n_h, lambda stage, fraction: progress(stage, 0.0), "single scattering")
 
     def fill(task):

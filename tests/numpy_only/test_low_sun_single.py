@@ -7,7 +7,7 @@ import pytest
 
 from lut_gen import AtmosphereParams
 from lut_gen.model import spectrum
-from lut_gen.tables.bake import node_basis
+from lut_gen.tables.view_rays import node_basis
 from lut_gen.verify import reference
 
 P = AtmosphereParams()
