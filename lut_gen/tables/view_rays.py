@@ -37,10 +37,10 @@ def density_profiles(params, heights):
 
 @dataclass
 class RayNodes:
-    """Nodes along a batch of view rays and the sun-independent hat-function weights."""
+    """Nodes along a batch of view rays and their sun-independent weights (node_basis)."""
     s: np.ndarray          # (rays, K) distance from the ray start
     radius: np.ndarray     # (rays, K) distance to the Earth centre
-    weight_rayleigh: np.ndarray   # (rays, K, C) integral of rho_R * T_view * hat_k ds
+    weight_rayleigh: np.ndarray   # (rays, K, C) integral of rho_R * T_view * basis_k ds
     weight_mie: np.ndarray        # (rays, K, C) same with rho_M
     weight_fog: Optional[np.ndarray] = None   # same with rho_F (None without fog)
 
@@ -104,10 +104,9 @@ def node_basis(s, tau, quadratic: bool):
     n_rays, n_nodes = s.shape
     intervals = n_nodes - 1
     k = np.arange(intervals)
-    start = k.copy()
-    if quadratic and n_nodes >= 3:
-        start = np.where(k % 2 == 0, k, k - 1)
-        start = np.minimum(start, n_nodes - 3)
+    # Every triple lies on the ray: the last interval is the second of its triple.
+    start = np.where(k % 2 == 0, k, k - 1) if quadratic else k
+    start = np.maximum(np.minimum(start, n_nodes - 3), 0)
     offset = k - start                                         # 0: interval (a, b), 1: (b, c)
     hat = np.zeros((intervals, len(tau), 3))
     hat[k, :, offset] = 1.0 - tau
@@ -153,11 +152,10 @@ def view_ray_nodes(params: AtmosphereParams, media: Media, height: float, cos_vi
     trap[[0, -1]] = 0.5
     basis, start = node_basis(s, tau, quadratic)
     basis = basis * trap[:, None]
-    # Each interval's triple onto the ray's nodes (a hat's third node has no weight, and the
-    # last interval's would lie past the ray).
+    # Each interval's triple onto the ray's nodes (a ray of two nodes has no third).
     onto_nodes = np.zeros((n_nodes - 1, 3, n_nodes), np.float32)
-    for j in range(3):
-        onto_nodes[np.arange(n_nodes - 1), j, np.minimum(start + j, n_nodes - 1)] = 1.0
+    for j in range(min(3, n_nodes)):
+        onto_nodes[np.arange(n_nodes - 1), j, start + j] = 1.0
     onto_nodes = onto_nodes.reshape(-1, n_nodes)
     weights = []
     for medium in ((0, 1, 3) if fog else (0, 1)):
