@@ -104,7 +104,7 @@ def _higher_orders(g, table_image, tau, abs_sun, mu_s, abs_view, cos_az, reflect
     low = g.math("MINIMUM", g.math("FLOOR", x_tau), n_tau - 2.0)
     weight = g.sub(x_tau, low)
     ts, tv = _table_texel(g, abs_sun), _table_texel(g, abs_view)
-    v = g.div(g.mul_add(reflected, n_cos, ts), 2.0 * n_cos)
+    v = g.div(g.mul_add(reflected, n_cos, ts), float(slab.TABLE_ROWS))
     fetches = []
     for node in (low, g.add(low, 1.0)):
         u = g.div(g.mul_add(node, n_cos, tv), n_tau * n_cos)
@@ -114,6 +114,20 @@ def _higher_orders(g, table_image, tau, abs_sun, mu_s, abs_view, cos_az, reflect
                   g.mul(terms[2], g.sub(g.mul(g.mul(cos_az, cos_az), 2.0), 1.0)))
     back, through = two_stream(g, tau, mu_s)
     return g.mul(g.mul(shape, g.mul(mu_s, 1.0 / math.pi)), g.select(through, back, reflected))
+
+
+def diffuse_shares(g, table_image, tau, abs_view):
+    """slab.diffuse_shares: (reflected, let through), one fetch of the table image's diffuse
+    block (columns the tau nodes, rows the view nodes, R let through, G reflected)."""
+    n_cos, n_tau = len(slab.TABLE_COS), len(slab.DIFFUSE_TAUS)
+    log_tau = g.math("LOGARITHM", g.math("MAXIMUM", tau, 1e-12), 2.0)
+    x_tau = g.clamp(g.mul(g.sub(log_tau, math.log2(slab.DIFFUSE_TAUS[0])), float(slab.DIFFUSE_TAUS_PER_OCTAVE)),
+                    0.0, n_tau - 1.0)
+    u = g.div(g.add(x_tau, 0.5), float(len(slab.TABLE_TAUS) * n_cos))
+    v = g.div(g.add(_table_texel(g, abs_view), 2.0 * n_cos), float(slab.TABLE_ROWS))
+    through_shape, back_shape, _ = g.separate(g.image(table_image, g.combine(u, v, 1.0)))
+    back, through = diffuse_two_stream(g, tau)
+    return g.mul(back, back_shape), g.mul(through, through_shape)
 
 
 def _cos_azimuth(g, cos_view, cos_sun, cos_sun_view):
@@ -207,7 +221,7 @@ def build_cloud_group(map_image, table_image, air_image, params):
     cos_az = _cos_azimuth(g, cos_view, cos_sun, cos_sun_view)
     sun_share = g.add(_single_scattering(g, tau, mu_s, abs_view, cos_sun_view, reflected),
                       _higher_orders(g, table_image, tau, abs_sun, mu_s, abs_view, cos_az, reflected))
-    back, through = diffuse_two_stream(g, tau)
+    back, through = diffuse_shares(g, table_image, tau, abs_view)
     looking_up = g.math("GREATER_THAN", cos_view, 0.0)
     ambient_share = g.select(back, through, looking_up)
     bounce_share = g.select(through, back, looking_up)

@@ -10,7 +10,7 @@ where the column's vertical optical thickness is tau = density * thickness * fra
   (the sun on the viewer's side: from above, or from below when the sun is under the cloud's
   horizontal, which lights the undersides at sunset);
 - the ambient skylight on the layer's top (top_light.py), diffusely transmitted or reflected
-  (slab.diffuse_two_stream);
+  (slab.diffuse_shares: the two-stream fluxes with the slab's own angular shape);
 - the column hides alpha = 1 - exp(-tau / |mu_v|) of what lies behind it.
 The air between the camera and P hazes it. With S the sky's radiance from the camera and S_P
 the sky's from P along the same ray (both from the 4D table), eq. (8) gives the air's light in
@@ -105,7 +105,7 @@ def _column_light(tau, at: _Geometry, sun_colour, ambient_colour, bounce_colour)
     reflected = (at.cos_view * at.cos_sun) < 0
     cos_az = slab.cos_azimuth(at.cos_view, at.cos_sun, at.cos_sun_view)
     sun_share = slab.radiance(tau, abs_sun, abs_view, at.cos_sun_view, cos_az, reflected)
-    back, through = slab.diffuse_two_stream(tau)
+    back, through = slab.diffuse_shares(tau, abs_view)
     # The skylight falls on the top, the ground's light on the base.
     looking_up = at.cos_view > 0
     ambient_share = np.where(looking_up, through, back)

@@ -158,6 +158,88 @@ def diffuse_two_stream(tau):
     return reflected, np.maximum(1.0 - reflected - np.exp(-2.0 * np.asarray(tau)), 0.0)
 
 
+# The diffuse ratios' optical thicknesses: half-octaves over the higher orders' range (octaves
+# read tau 2.5 2% bright).
+DIFFUSE_TAUS_PER_OCTAVE = 2
+DIFFUSE_TAUS = tuple(TABLE_TAUS[0] * 2.0 ** (k / DIFFUSE_TAUS_PER_OCTAVE)
+                     for k in range(DIFFUSE_TAUS_PER_OCTAVE * (len(TABLE_TAUS) - 1) + 1))
+# The diffuse shapes' quadrature over the lit face's hemisphere of incident directions.
+DIFFUSE_ZENITHS = 24        # Gauss-Legendre in the incident zenith cosine
+DIFFUSE_AZIMUTHS = 48
+
+
+def _diffuse_radiance(tau, cos_view, reflected: bool):
+    """(n,) radiance leaving a slab of optical thickness ``tau`` (n,) at zenith cosine
+    ``cos_view`` (n,) under a sky of unit radiance on its lit face, scattered light only: the
+    collimated response ``radiance`` (single scattering and the Monte Carlo table's higher
+    orders) integrated over the incident directions."""
+    x, w = np.polynomial.legendre.leggauss(DIFFUSE_ZENITHS)
+    mu_s, w = 0.5 * (x + 1.0), 0.5 * w
+    azimuth = (np.arange(DIFFUSE_AZIMUTHS) + 0.5) * 2.0 * math.pi / DIFFUSE_AZIMUTHS
+    tau = np.asarray(tau, dtype=np.float64)[:, None, None]
+    mu_v = np.maximum(np.asarray(cos_view, dtype=np.float64), MIN_COS)[:, None, None]
+    mu_s, cos_az = mu_s[None, :, None], np.cos(azimuth)[None, None, :]
+    across = np.sqrt(1.0 - mu_v ** 2) * np.sqrt(1.0 - mu_s ** 2) * cos_az
+    # The view leaves the lit face (reflected) or the other one; its direction's cosine with the
+    # direction toward each source.
+    cos_sun_view = (-mu_v * mu_s if reflected else mu_v * mu_s) + across
+    shape = np.broadcast_shapes(tau.shape, mu_s.shape, cos_az.shape)
+    out = radiance(tau, mu_s, mu_v, cos_sun_view, np.broadcast_to(cos_az, shape), np.full(shape, reflected))
+    return np.einsum("nsa,s->n", out, w) * (2.0 * math.pi / DIFFUSE_AZIMUTHS)
+
+
+@functools.lru_cache(maxsize=1)
+def diffuse_ratios() -> np.ndarray:
+    """(2, n_tau, n_cos): [0] let through, [1] reflected, the radiance a slab of optical
+    thickness DIFFUSE_TAUS sends out toward zenith cosine TABLE_COS under a uniform sky on its
+    lit face, over the isotropic radiance of the delta-Eddington diffuse flux
+    (diffuse_two_stream / pi); read-only.
+
+    The two-stream fluxes leave a cloud isotropically, but a thick cloud's base is
+    limb-darkened (by the path tracer, 70 deg from the zenith 0.72x the isotropic radiance,
+    20 deg from it 1.2x) and a thin cloud's top under a uniform sky limb-brightened (1.4x at
+    70 deg). From below a deck looking up 20 deg under a low sun, where the skylight on its top
+    is most of its light, the isotropic shares came out 1.29x the atmosphere tracer's."""
+    n_tau = len(DIFFUSE_TAUS)
+    taus = np.repeat(np.asarray(DIFFUSE_TAUS, dtype=np.float64), len(TABLE_COS))
+    cosines = np.tile(np.asarray(TABLE_COS, dtype=np.float64), n_tau)
+    back, through = diffuse_two_stream(taus)
+    ratios = np.stack([_diffuse_radiance(taus, cosines, False) / np.maximum(through, 1e-12),
+                       _diffuse_radiance(taus, cosines, True) / np.maximum(back, 1e-12)])
+    ratios = ratios.reshape(2, n_tau, len(TABLE_COS))
+    ratios.flags.writeable = False
+    return ratios
+
+
+def diffuse_tau_coordinate(tau):
+    """The node coordinate of ``tau`` on DIFFUSE_TAUS, clamped to its ends."""
+    x = (np.log2(np.maximum(tau, 1e-12)) - math.log2(DIFFUSE_TAUS[0])) * DIFFUSE_TAUS_PER_OCTAVE
+    return np.clip(x, 0.0, len(DIFFUSE_TAUS) - 1.0)
+
+
+def diffuse_shares(tau, cos_view):
+    """(reflected, let through): the radiance toward zenith cosine ``cos_view`` (taken
+    positive) of a slab under diffuse light of unit irradiance on its lit face, times pi (the
+    fluxes of diffuse_two_stream where they leave isotropically), with diffuse_ratios' angular
+    shape: linear in log2(tau) between its nodes and in the view cosine (clamped at the ends;
+    thicker slabs keep the last node's shape)."""
+    tau = np.asarray(tau, dtype=np.float64)
+    ratios = diffuse_ratios()
+    x_tau = diffuse_tau_coordinate(tau)
+    low = np.minimum(np.floor(x_tau), len(DIFFUSE_TAUS) - 2).astype(int)
+    weight = x_tau - low
+    _, _, _, tv = table_coordinates(tau, np.ones_like(tau), np.asarray(cos_view, dtype=np.float64))
+    fv = tv - 0.5
+    v0 = np.clip(np.floor(fv), 0, ratios.shape[2] - 2).astype(int)
+    wv = fv - v0
+
+    def at(side, node):
+        return (1.0 - wv) * ratios[side, node, v0] + wv * ratios[side, node, v0 + 1]
+    back, through = diffuse_two_stream(tau)
+    shape = [at(side, low) + (at(side, low + 1) - at(side, low)) * weight for side in (0, 1)]
+    return back * shape[1], through * shape[0]
+
+
 def cos_azimuth(cos_view, cos_sun, cos_sun_view):
     """Cosine of the azimuth between the line of sight and the sun, from signed zenith cosines
     and their mutual cosine (1 where either is vertical: the azimuth is then moot)."""
@@ -172,15 +254,24 @@ def radiance(tau, cos_sun, cos_view, cos_sun_view, cos_az, reflected):
     return single + higher_orders(tau, cos_sun, cos_view, cos_az, reflected)
 
 
+TABLE_ROWS = 3 * len(TABLE_COS)     # the table image: two sides of higher orders, the diffuse block
+
+
 def table_pixels() -> np.ndarray:
-    """The higher orders' table as an RGBA float image (rows bottom to top) for the node group:
-    row side * n_cos + sun node, column tau node * n_cos + view node, RGB the three azimuthal
-    terms. Within one tau node's block the image's bilinear filtering at texel coordinates
-    clamped to the block's outer centres is _bilinear's."""
+    """The slab's tables as an RGBA float image (rows bottom to top) for the node group:
+    - the higher orders: row side * n_cos + sun node, column tau node * n_cos + view node, RGB
+      the three azimuthal terms. Within one tau node's block the image's bilinear filtering at
+      texel coordinates clamped to the block's outer centres is _bilinear's;
+    - the diffuse ratios (diffuse_ratios) above them: row 2 n_cos + view node, column tau node,
+      R let through, G reflected (DIFFUSE_TAUS nodes). One bilinear fetch blends both axes as
+      diffuse_shares."""
     ratio = higher_order_ratios()
+    diffuse = diffuse_ratios()
     n_cos, n_tau = len(TABLE_COS), len(TABLE_TAUS)
-    pixels = np.ones((2 * n_cos, n_tau * n_cos, 4), dtype=np.float32)
+    pixels = np.ones((TABLE_ROWS, n_tau * n_cos, 4), dtype=np.float32)
     for side in range(2):
         for node in range(n_tau):
             pixels[side * n_cos:(side + 1) * n_cos, node * n_cos:(node + 1) * n_cos, :3] = ratio[side, node]
+    pixels[2 * n_cos:, :len(DIFFUSE_TAUS), 0] = diffuse[0].T
+    pixels[2 * n_cos:, :len(DIFFUSE_TAUS), 1] = diffuse[1].T
     return pixels

@@ -39,7 +39,10 @@ def test_sky_with_clouds_read_from_the_air_map_equals_the_per_ray_terms(draft_lu
     assert exact.hit.mean() > 0.3 and (want > 0).all()
     err = np.abs(got - want) / want
     assert np.median(err) < 1e-4, np.median(err)
-    assert np.percentile(err, 99) < 3e-3, np.percentile(err, 99)
+    # p99 measured 1.2e-3 to 3.1e-3, the last from 900 m under a sun 3 deg high (2.7e-3 while
+    # the cloud base was taken as isotropic: its limb darkening dims the grazing rays the map's
+    # interpolation error sits in).
+    assert np.percentile(err, 99) < 4e-3, np.percentile(err, 99)
     if camera_height < layer.middle:
         # From above, the layer's limb (the distance to it jumps there) is a few % off in a
         # sliver a tenth of a degree wide; below it every ray is close: the worst are the rays

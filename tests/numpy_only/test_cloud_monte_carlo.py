@@ -19,11 +19,10 @@ the direct sun where the layer lets it through. Errors are relative, RGB norms
 
 Where the model holds and where it does not (measured with the seeds and path counts below; MC
 standard errors 1-7%, largest from below a thick layer under a low sun, with the default tables'
-geometric tail of orders): 44 of the 54 geometries are within the bar, KNOWN_MODEL_ERRORS lists
-the other 10 with their numbers (as measured before the tail; up to 0.29 with it).
-test_within_the_bar_where_the_model_holds asserts the bar on the 44;
-test_the_known_model_errors_do_not_grow holds the other 10 at their measured error or better,
-until the model is fixed.
+geometric tail of orders): 49 of the 54 geometries are within the bar, KNOWN_MODEL_ERRORS lists
+the other 5 with their numbers (0.100-0.133). test_within_the_bar_where_the_model_holds asserts
+the bar on the 49; test_the_known_model_errors_do_not_grow holds the other 5 at their measured
+error or better, until the model is fixed.
 
 What was fixed (2026-12-03, fourth session; 15 of 54 were within the bar before, the worst 20x):
 1. The air between the camera and the cloud was lit as clear sky; under the deck it is in the
@@ -39,16 +38,18 @@ What was fixed (2026-12-03, fourth session; 15 of 54 were within the bar before,
    above returns: the sun-5 geometries from 16 misses to 7.
 4. The air over the deck scattered the light of a ground of the atmosphere's albedo, not the
    deck's (air_shade.py from above): looking down 20 deg toward a sun at 20 deg 0.89x -> within.
+5. The diffuse light (the skylight on the top, the ground's light on the base) left a column
+   isotropically, with the two-stream fluxes. A thick cloud's base is limb-darkened and its
+   top, under a uniform sky, limb-brightened: slab.diffuse_shares now gives that light the
+   angular shape of the slab's own collimated response (single scattering and the tracer's
+   higher-orders table) integrated over the sky's directions (2026-12-07). Looking up 20 deg
+   from under the thick layer at a sun 5 deg high: 1.29x -> 1.10-1.11x; 10 misses -> 5.
 
 What is still wrong, by the tracer's numbers:
-- Looking up 20 deg under a sun 5 deg high: 1.29-1.35x (both layers), and the thin layer toward
-  it 1.12x: the air's light under the deck (the clouds' glow scattered by the long, hazy path)
-  is over.
-- Looking down 20 deg on the deck under a sun 5 deg high: 0.84-0.88x.
-- The thin layer (optical depth 2.5) seen from below away from the sun: 1.13-1.16x. The
+- Looking down 20 deg on the deck toward a sun 5 deg high: 0.87-0.89x.
+- The thin layer (optical depth 2.5) seen from below away from the sun: 1.09-1.14x. The
   slab's own light there is 1.05-1.16x the slab tracer's (no air), the rest is the light of the
   ground and the sky let through.
-- The thick layer from below, up 20 away from a sun at 20: 1.14x.
 """
 from __future__ import annotations
 
@@ -85,22 +86,17 @@ PATHS_BELOW_THICK = 16384
 # The hemisphere quadrature of the model's diffuse irradiance: Gauss-Legendre in cos(zenith).
 HEMISPHERE_ZENITHS, HEMISPHERE_AZIMUTHS = 48, 96
 
-# Geometries over the bar at these seeds and path counts, 11 of 54 (the module docstring says
-# why): name: (RGB error, model / MC in green, MC standard error, relative). The 44 within the
+# Geometries over the bar at these seeds and path counts, 5 of 54 (the module docstring says
+# why): name: (RGB error, model / MC in green, MC standard error, relative). The 49 within the
 # bar include every global irradiance and every view at sun 60 but one; those near 0.10 are so
 # within the tracer's noise (standard errors 2-6% there): they hold at these seeds, not by a
 # margin.
 KNOWN_MODEL_ERRORS = {
-    "tau 20, below, up 20, sun 20 away": (0.133, 1.14, 0.050),
-    "tau 20, below, up 20, sun 5 toward": (0.273, 1.29, 0.060),
-    "tau 20, below, up 20, sun 5 away": (0.259, 1.29, 0.069),
-    "tau 20, above, down 20, sun 5 toward": (0.114, 0.88, 0.021),
-    "tau 2.5, below, up 60, sun 60 away": (0.150, 1.16, 0.022),
-    "tau 2.5, below, up 20, sun 20 away": (0.134, 1.13, 0.038),
-    "tau 2.5, below, up 20, sun 5 toward": (0.122, 1.12, 0.047),
-    "tau 2.5, below, up 20, sun 5 away": (0.263, 1.28, 0.048),
-    "tau 2.5, above, down 20, sun 5 toward": (0.142, 0.85, 0.021),
-    "tau 2.5, above, down 20, sun 5 away": (0.177, 0.84, 0.040),
+    "tau 20, above, down 20, sun 5 toward": (0.107, 0.89, 0.021),
+    "tau 2.5, below, up 60, sun 60 away": (0.133, 1.14, 0.022),
+    "tau 2.5, below, up 20, sun 20 away": (0.100, 1.10, 0.038),
+    "tau 2.5, below, up 20, sun 5 away": (0.105, 1.09, 0.048),
+    "tau 2.5, above, down 20, sun 5 toward": (0.121, 0.87, 0.021),
 }
 
 
