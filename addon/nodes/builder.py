@@ -148,6 +148,18 @@ class Graph:
         self.feed(node.inputs["Vector"], uv)
         return node.outputs["Color"]
 
+    def image_rgba(self, image: bpy.types.Image, uv):
+        """(colour, alpha) of a channel-packed data ``image`` at ``uv``, Linear filtering with
+        extended edges: four numbers a texel (shader trees only)."""
+        if self.tree.bl_idname == "CompositorNodeTree":
+            raise ValueError("image_rgba is for shader trees")
+        if image.alpha_mode != "CHANNEL_PACKED":
+            raise ValueError(f"{image.name} must be channel-packed: its alpha would scale its colour")
+        node = self.node("ShaderNodeTexImage", image=image, interpolation="Linear", extension="EXTEND",
+                         label=image.name)
+        self.feed(node.inputs["Vector"], uv)
+        return node.outputs["Color"], node.outputs["Alpha"]
+
 
 def _holds(socket, value) -> bool:
     """Whether ``socket`` already has ``value`` (then setting it, a tree update, is skipped)."""

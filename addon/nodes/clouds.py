@@ -108,10 +108,13 @@ def _higher_orders(g, table_image, tau, abs_sun, mu_s, abs_view, cos_az, reflect
     fetches = []
     for node in (low, g.add(low, 1.0)):
         u = g.div(g.mul_add(node, n_cos, tv), n_tau * n_cos)
-        fetches.append(g.image(table_image, g.combine(u, v, 1.0)))
-    terms = g.separate(g.vlerp(fetches[0], fetches[1], weight))
-    shape = g.add(g.mul_add(terms[1], cos_az, terms[0]),
-                  g.mul(terms[2], g.sub(g.mul(g.mul(cos_az, cos_az), 2.0), 1.0)))
+        fetches.append(g.image_rgba(table_image, g.combine(u, v, 1.0)))
+    terms = g.separate(g.vlerp(fetches[0][0], fetches[1][0], weight))
+    fourth = g.lerp(fetches[0][1], fetches[1][1], weight)
+    cos2 = g.mul_add(g.mul(cos_az, cos_az), 2.0, -1.0)
+    cos3 = g.sub(g.mul(g.mul(cos_az, cos2), 2.0), cos_az)
+    shape = g.math("EXPONENT", g.add(g.add(g.mul_add(terms[1], cos_az, terms[0]), g.mul(terms[2], cos2)),
+                                     g.mul(fourth, cos3)))
     back, through = two_stream(g, tau, mu_s)
     return g.mul(g.mul(shape, g.mul(mu_s, 1.0 / math.pi)), g.select(through, back, reflected))
 

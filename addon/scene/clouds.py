@@ -72,6 +72,7 @@ def _point_groups_at(image):
 def ensure_table_image():
     pixels = slab.table_pixels()
     image = _float_image(names.CLOUD_TABLE_IMAGE, pixels.shape[1], pixels.shape[0])
+    image.alpha_mode = "CHANNEL_PACKED"     # the alpha is the log series' fourth term
     _fill(image, pixels)
     return image
 

@@ -77,7 +77,7 @@ def glow_sources(luts: Luts, layer: CloudLayer, cos_sun: float) -> Glow:
     params = luts.params
     full = layer.density * layer.thickness
     mu_s = max(cos_sun, 0.0)
-    top_sun = luts.transmittance_to_top(layer.middle, np.array(cos_sun)) * mu_s
+    top_sun = luts.transmittance_to_top(layer.base + layer.thickness, np.array(cos_sun)) * mu_s
     sky = top_light.skylight(luts, layer, np.array(cos_sun))
 
     def fluxes(fraction):

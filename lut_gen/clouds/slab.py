@@ -9,8 +9,11 @@ Two parts, each chosen for what it gets right:
 - **all higher orders** from the delta-Eddington two-stream solution for a conservative slab
   (Joseph, Wiscombe & Weinman 1976; Meador & Weaver 1980): the diffuse fluxes of a thick cloud
   are set by its transport optical depth tau (1 - g), and the two-stream solution is within a
-  few percent of exact there. Its diffuse flux, less the part single scattering already carries,
-  leaves isotropically.
+  few percent of exact there. Its flux leaves with the angular shape of the Monte Carlo path
+  tracer's higher orders (a table over tau, sun and view zenith: the series in azimuth of its
+  logarithm, four terms);
+- **diffuse light** (the skylight on the top, the ground's on the base) leaves with the shape of
+  the two parts above integrated over the sky (diffuse_shares).
 Checked against a Monte Carlo path tracer of the same slab (lut_gen/verify/slab_monte_carlo.py,
 tests/numpy_only/test_cloud_slab.py).
 """
@@ -25,7 +28,7 @@ import numpy as np
 
 from ..model.cloud_medium import ASYMMETRY, PHASE_LOBES, phase  # noqa: F401 (slab.phase, slab.PHASE_LOBES)
 
-FOURIER_TERMS = 3       # the higher orders' azimuthal cosine series: 1, cos(phi), cos(2 phi)
+LOG_TERMS = 4           # the higher orders' log-cosine series in azimuth: 1, cos(phi), cos(2 phi), cos(3 phi)
 MIN_COS = 0.02          # grazing rays: cosines below this are held here (a slab's path is finite)
 
 # The higher orders' table: optical thicknesses (log2-spaced; thicker slabs take the last node's
@@ -88,22 +91,22 @@ class CloudTableError(ValueError):
 
 
 @functools.lru_cache(maxsize=1)
-def higher_order_ratios() -> np.ndarray:
-    """(2, n_tau, n_sun, n_view, 3): [0] seen from below, [1] from above, the cosine-series
-    coefficients in azimuth (lut_gen.verify.slab_monte_carlo.higher_order_table) over the
-    delta-Eddington flux's radiance; read-only."""
+def higher_order_series() -> np.ndarray:
+    """(2, n_tau, n_sun, n_view, LOG_TERMS): [0] seen from below, [1] from above, the cosine
+    series in azimuth of the log of the higher orders' radiance over the delta-Eddington flux's
+    (lut_gen.verify.slab_monte_carlo.log_cosine_series); read-only."""
     try:
         with open(TABLE_PATH) as f:
             data = json.load(f)
-        ratio = np.asarray(data["ratio"], dtype=np.float64)
+        series = np.asarray(data["log_series"], dtype=np.float64)
     except (OSError, ValueError, KeyError) as error:
         raise CloudTableError(f"the cloud table {TABLE_PATH} is missing or damaged ({error}); "
                               "reinstall the extension or run scripts/gen_cloud_table.py") from None
-    if ratio.shape != (2, len(TABLE_TAUS), len(TABLE_COS), len(TABLE_COS), FOURIER_TERMS) or not np.all(np.isfinite(ratio)):
+    if series.shape != (2, len(TABLE_TAUS), len(TABLE_COS), len(TABLE_COS), LOG_TERMS) or not np.all(np.isfinite(series)):
         raise CloudTableError(f"the cloud table {TABLE_PATH} has the wrong shape or non-finite values; "
                               "reinstall the extension or run scripts/gen_cloud_table.py")
-    ratio.flags.writeable = False
-    return ratio
+    series.flags.writeable = False
+    return series
 
 
 def table_coordinates(tau, cos_sun, cos_view):
@@ -138,13 +141,15 @@ def higher_orders(tau, cos_sun, cos_view, cos_azimuth, reflected):
     tau, cos_sun, cos_view, cos_azimuth, reflected = np.broadcast_arrays(
         *(np.asarray(a, dtype=np.float64) for a in (tau, cos_sun, cos_view, cos_azimuth)), np.asarray(reflected))
     side = reflected.astype(int)
-    ratio = higher_order_ratios()
+    series = higher_order_series()
     low, weight, ts, tv = table_coordinates(tau, cos_sun, cos_view)
     low = low.astype(int)
-    lower = _bilinear(ratio, side, low, ts, tv)
-    upper = _bilinear(ratio, side, low + 1, ts, tv)
+    lower = _bilinear(series, side, low, ts, tv)
+    upper = _bilinear(series, side, low + 1, ts, tv)
     terms = lower + (upper - lower) * weight[..., None]
-    shape = terms[..., 0] + terms[..., 1] * cos_azimuth + terms[..., 2] * (2.0 * cos_azimuth ** 2 - 1.0)
+    cos2 = 2.0 * cos_azimuth ** 2 - 1.0
+    shape = np.exp(terms[..., 0] + terms[..., 1] * cos_azimuth + terms[..., 2] * cos2
+                   + terms[..., 3] * (2.0 * cos_azimuth * cos2 - cos_azimuth))
     mu_s = np.maximum(cos_sun, MIN_COS)
     back, through = two_stream(tau, cos_sun)
     return shape * mu_s * np.where(side == 1, back, through) / np.pi
@@ -259,19 +264,19 @@ TABLE_ROWS = 3 * len(TABLE_COS)     # the table image: two sides of higher order
 
 def table_pixels() -> np.ndarray:
     """The slab's tables as an RGBA float image (rows bottom to top) for the node group:
-    - the higher orders: row side * n_cos + sun node, column tau node * n_cos + view node, RGB
-      the three azimuthal terms. Within one tau node's block the image's bilinear filtering at
+    - the higher orders: row side * n_cos + sun node, column tau node * n_cos + view node, RGBA
+      the four terms of the log series (the image is channel-packed: its alpha is data). Within one tau node's block the image's bilinear filtering at
       texel coordinates clamped to the block's outer centres is _bilinear's;
     - the diffuse ratios (diffuse_ratios) above them: row 2 n_cos + view node, column tau node,
       R let through, G reflected (DIFFUSE_TAUS nodes). One bilinear fetch blends both axes as
       diffuse_shares."""
-    ratio = higher_order_ratios()
+    series = higher_order_series()
     diffuse = diffuse_ratios()
     n_cos, n_tau = len(TABLE_COS), len(TABLE_TAUS)
     pixels = np.ones((TABLE_ROWS, n_tau * n_cos, 4), dtype=np.float32)
     for side in range(2):
         for node in range(n_tau):
-            pixels[side * n_cos:(side + 1) * n_cos, node * n_cos:(node + 1) * n_cos, :3] = ratio[side, node]
+            pixels[side * n_cos:(side + 1) * n_cos, node * n_cos:(node + 1) * n_cos] = series[side, node]
     pixels[2 * n_cos:, :len(DIFFUSE_TAUS), 0] = diffuse[0].T
     pixels[2 * n_cos:, :len(DIFFUSE_TAUS), 1] = diffuse[1].T
     return pixels

@@ -114,16 +114,13 @@ def trace(tau: float, cos_sun: float, views: np.ndarray, photons: int = 20000, s
 
 
 AZIMUTHS = np.radians(np.linspace(0.0, 180.0, 7))
-# Trapezoid weights over [0, pi] for the Fourier projection of an even function of azimuth.
-_AZ_WEIGHTS = np.r_[0.5, np.ones(len(AZIMUTHS) - 2), 0.5] / (len(AZIMUTHS) - 1)
-FOURIER_TERMS = 3
+LOG_TERMS = 4
 
 
-def higher_order_table(taus, cos_suns, cos_views, photons: int = 20000, seed: int = 7):
-    """(2, n_tau, n_sun, n_view, FOURIER_TERMS): the second and higher orders' radiance per unit
-    sun irradiance, [0] seen from below, [1] from above, as cosine-series coefficients in phi,
-    the azimuth between the line of sight (eye to cloud) and the sun:
-    L = a0 + a1 cos(phi) + a2 cos(2 phi) (lut_gen/clouds/slab.py's table)."""
+def higher_order_samples(taus, cos_suns, cos_views, photons: int = 20000, seed: int = 7):
+    """(2, n_tau, n_sun, n_view, n_az): the second and higher orders' radiance per unit sun
+    irradiance, [0] seen from below, [1] from above, at the AZIMUTHS phi between the line of
+    sight (eye to cloud) and the sun."""
     cos_views = np.asarray(cos_views, dtype=np.float64)
     sin_views = np.sqrt(np.maximum(1.0 - cos_views ** 2, 0.0))
     az = np.repeat(AZIMUTHS[None, :], len(cos_views), axis=0)
@@ -132,14 +129,23 @@ def higher_order_table(taus, cos_suns, cos_views, photons: int = 20000, seed: in
     look_up = np.stack([sin_views[:, None] * np.cos(az), sin_views[:, None] * np.sin(az),
                         np.repeat(cos_views[:, None], len(AZIMUTHS), axis=1)], axis=-1).reshape(-1, 3)
     look_down = look_up * np.array([1.0, 1.0, -1.0])
-    cosines = np.stack([np.cos(k * AZIMUTHS) for k in range(FOURIER_TERMS)])       # (terms, az)
-    projection = cosines * _AZ_WEIGHTS * np.where(np.arange(FOURIER_TERMS) == 0, 1.0, 2.0)[:, None]
-    table = np.zeros((2, len(taus), len(cos_suns), len(cos_views), FOURIER_TERMS))
+    samples = np.zeros((2, len(taus), len(cos_suns), len(cos_views), len(AZIMUTHS)))
     n = len(look_up)
     for i, tau in enumerate(taus):
         for j, cos_sun in enumerate(cos_suns):
             r = trace(float(tau), float(cos_sun), np.concatenate([-look_up, -look_down]), photons=photons,
                       seed=seed + 1000 * i + j)
             for side, values in enumerate((r.below_higher[:n], r.above_higher[n:])):
-                table[side, i, j] = values.reshape(len(cos_views), -1) @ projection.T
-    return table
+                samples[side, i, j] = values.reshape(len(cos_views), -1)
+    return samples
+
+
+def log_cosine_series(values, terms: int = LOG_TERMS, floor: float = 1e-12):
+    """(..., terms) least-squares coefficients c of log(values) (..., n_az) at AZIMUTHS in
+    cos(k phi), k < terms: values ~ exp(sum c_k cos(k phi)). A series of the values themselves
+    rang around the forward glow of thin clouds (the second order's peak toward the sun): with
+    three terms 0.87x the tracer toward the sun and 1.18x away from it at optical depth 2; the
+    series of the logs stays positive and within 4% there with four."""
+    basis = np.stack([np.cos(k * AZIMUTHS) for k in range(terms)], axis=-1)          # (n_az, terms)
+    logs = np.log(np.maximum(values, floor))
+    return logs @ np.linalg.pinv(basis).T

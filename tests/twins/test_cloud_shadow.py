@@ -107,10 +107,10 @@ def test_a_damaged_cloud_table_is_a_clear_error(addon_package, tmp_path, monkeyp
     broken = tmp_path / "higher_orders.json"
     broken.write_text('{"ratio": [1, 2')
     monkeypatch.setattr(slab, "TABLE_PATH", str(broken))
-    slab.higher_order_ratios.cache_clear()
+    slab.higher_order_series.cache_clear()
     try:
         with pytest.raises(ValueError, match="cloud table .* missing or damaged"):
             slab.table_pixels()
     finally:
         monkeypatch.undo()
-        slab.higher_order_ratios.cache_clear()
+        slab.higher_order_series.cache_clear()
