@@ -34,7 +34,8 @@ def test_slab_radiance_matches_the_path_tracer(tau, sun_elevation):
                               slab.cos_azimuth(looks[:, 2], cos_sun, looks @ sun), reflected)
         assert np.all(se < 0.1 * reference)
         error = np.abs(model / reference - 1.0)
-        assert np.median(error) < 0.1, (reflected, np.round(model / reference, 2))
+        # Medians measured 0.7-6.2% (2026-12-07, the log series; the bar was 10% before it).
+        assert np.median(error) < 0.075, (reflected, np.round(model / reference, 2))
         # What the eye takes in over these views (cosine-weighted, as flux): within 10%.
         weights = cos_view
         assert abs((model * weights).sum() / (reference * weights).sum() - 1.0) < 0.1
