@@ -31,7 +31,7 @@ def main():
     # The diffuse flux is the tracer's too, so exp(c0) is near the flux's shape factor; the
     # other terms carry the azimuthal shape (the forward glow of thin clouds, the glint of a
     # low sun).
-    ratio = log_cosine_series(ratio)
+    ratio = log_cosine_series(ratio, slab.LOG_TERMS)
     out = {"about": __doc__.strip().splitlines()[0], "photons": PHOTONS, "phase_lobes": slab.PHASE_LOBES,
            "taus": list(taus), "cos": list(cos_suns), "log_series": np.round(ratio, 5).tolist()}
     with atomic_path(slab.TABLE_PATH) as tmp:

@@ -96,10 +96,14 @@ def _table_texel(g, cosine):
     return g.add(g.clamp(scaled, 0.0, n - 1.0), 0.5)
 
 
-def _higher_orders(g, table_image, tau, abs_sun, mu_s, abs_view, cos_az, reflected):
+def _log2_tau(g, tau):
+    """log2(tau), floored: both tables' tau axes are log2-spaced (one node a ray)."""
+    return g.math("LOGARITHM", g.math("MAXIMUM", tau, 1e-12), 2.0)
+
+
+def _higher_orders(g, table_image, tau, log_tau, abs_sun, mu_s, abs_view, cos_az, reflected):
     """slab.higher_orders: two fetches (the tau nodes around tau) of the table image."""
     n_cos, n_tau = len(slab.TABLE_COS), len(slab.TABLE_TAUS)
-    log_tau = g.math("LOGARITHM", g.math("MAXIMUM", tau, 1e-12), 2.0)
     x_tau = g.clamp(g.sub(log_tau, math.log2(slab.TABLE_TAUS[0])), 0.0, n_tau - 1.0)
     low = g.math("MINIMUM", g.math("FLOOR", x_tau), n_tau - 2.0)
     weight = g.sub(x_tau, low)
@@ -119,11 +123,10 @@ def _higher_orders(g, table_image, tau, abs_sun, mu_s, abs_view, cos_az, reflect
     return g.mul(g.mul(shape, g.mul(mu_s, 1.0 / math.pi)), g.select(through, back, reflected))
 
 
-def diffuse_shares(g, table_image, tau, abs_view):
+def diffuse_shares(g, table_image, tau, log_tau, abs_view):
     """slab.diffuse_shares: (reflected, let through), one fetch of the table image's diffuse
     block (columns the tau nodes, rows the view nodes, R let through, G reflected)."""
     n_cos, n_tau = len(slab.TABLE_COS), len(slab.DIFFUSE_TAUS)
-    log_tau = g.math("LOGARITHM", g.math("MAXIMUM", tau, 1e-12), 2.0)
     x_tau = g.clamp(g.mul(g.sub(log_tau, math.log2(slab.DIFFUSE_TAUS[0])), float(slab.DIFFUSE_TAUS_PER_OCTAVE)),
                     0.0, n_tau - 1.0)
     u = g.div(g.add(x_tau, 0.5), float(len(slab.TABLE_TAUS) * n_cos))
@@ -222,9 +225,10 @@ def build_cloud_group(map_image, table_image, air_image, params):
     alpha = g.sub(1.0, g.math("EXPONENT", g.div(g.mul(tau, -1.0), abs_view)))
     reflected = g.math("LESS_THAN", g.mul(cos_view, cos_sun), 0.0)
     cos_az = _cos_azimuth(g, cos_view, cos_sun, cos_sun_view)
+    log_tau = _log2_tau(g, tau)
     sun_share = g.add(_single_scattering(g, tau, mu_s, abs_view, cos_sun_view, reflected),
-                      _higher_orders(g, table_image, tau, abs_sun, mu_s, abs_view, cos_az, reflected))
-    back, through = diffuse_shares(g, table_image, tau, abs_view)
+                      _higher_orders(g, table_image, tau, log_tau, abs_sun, mu_s, abs_view, cos_az, reflected))
+    back, through = diffuse_shares(g, table_image, tau, log_tau, abs_view)
     looking_up = g.math("GREATER_THAN", cos_view, 0.0)
     ambient_share = g.select(back, through, looking_up)
     bounce_share = g.select(through, back, looking_up)

@@ -84,8 +84,12 @@ def sun_at_lit_face(luts: Luts, layer: CloudLayer, cos_sun):
     300 m of haze too many, and the deck seen from above toward it was 0.87-0.89x the Monte
     Carlo tracer's (0.94x from the top)."""
     cos_sun = np.asarray(cos_sun, dtype=np.float64)
-    top = luts.transmittance_to_top(layer.base + layer.thickness, cos_sun)
-    return np.where((cos_sun > 0.0)[..., None], top, luts.transmittance_to_top(layer.base, cos_sun))
+    colour = np.asarray(luts.transmittance_to_top(layer.base + layer.thickness, cos_sun))
+    under = cos_sun <= 0.0
+    if np.any(under):
+        colour = colour.copy()
+        colour[under] = luts.transmittance_to_top(layer.base, cos_sun[under])
+    return colour
 
 
 def _air_terms(luts: Luts, layer: CloudLayer, height, rays, at: _Geometry, sun) -> AirTerms:

@@ -113,13 +113,17 @@ def table_coordinates(tau, cos_sun, cos_view):
     """(tau node below, its upper neighbour's weight, sun texel, view texel): continuous texel
     coordinates (centres at i + 0.5) of the cosines, clamped to the outer centres, and the
     log2-spaced tau axis' node and weight (clamped at both ends)."""
-    n_cos, n_tau = len(TABLE_COS), len(TABLE_TAUS)
+    n_tau = len(TABLE_TAUS)
     x_tau = np.clip(np.log2(np.maximum(tau, 1e-12)) - math.log2(TABLE_TAUS[0]), 0.0, n_tau - 1.0)
     low = np.minimum(np.floor(x_tau), n_tau - 2)
+    return low, x_tau - low, cos_texel(cos_sun), cos_texel(cos_view)
 
-    def texel(c):
-        return np.clip((c - TABLE_COS[0]) / (TABLE_COS[-1] - TABLE_COS[0]) * (n_cos - 1), 0.0, n_cos - 1.0) + 0.5
-    return low, x_tau - low, texel(cos_sun), texel(cos_view)
+
+def cos_texel(cosine):
+    """Continuous texel coordinate (centres at i + 0.5) of a zenith cosine on TABLE_COS,
+    clamped to the outer centres."""
+    n_cos = len(TABLE_COS)
+    return np.clip((cosine - TABLE_COS[0]) / (TABLE_COS[-1] - TABLE_COS[0]) * (n_cos - 1), 0.0, n_cos - 1.0) + 0.5
 
 
 def _bilinear(table, side, node, ts, tv):
@@ -233,8 +237,7 @@ def diffuse_shares(tau, cos_view):
     x_tau = diffuse_tau_coordinate(tau)
     low = np.minimum(np.floor(x_tau), len(DIFFUSE_TAUS) - 2).astype(int)
     weight = x_tau - low
-    _, _, _, tv = table_coordinates(tau, np.ones_like(tau), np.asarray(cos_view, dtype=np.float64))
-    fv = tv - 0.5
+    fv = cos_texel(np.asarray(cos_view, dtype=np.float64)) - 0.5
     v0 = np.clip(np.floor(fv), 0, ratios.shape[2] - 2).astype(int)
     wv = fv - v0
 
@@ -265,8 +268,9 @@ TABLE_ROWS = 3 * len(TABLE_COS)     # the table image: two sides of higher order
 def table_pixels() -> np.ndarray:
     """The slab's tables as an RGBA float image (rows bottom to top) for the node group:
     - the higher orders: row side * n_cos + sun node, column tau node * n_cos + view node, RGBA
-      the four terms of the log series (the image is channel-packed: its alpha is data). Within one tau node's block the image's bilinear filtering at
-      texel coordinates clamped to the block's outer centres is _bilinear's;
+      the four terms of the log series (the image is channel-packed: its alpha is data). Within
+      one tau node's block the image's bilinear filtering at texel coordinates clamped to the
+      block's outer centres is _bilinear's;
     - the diffuse ratios (diffuse_ratios) above them: row 2 n_cos + view node, column tau node,
       R let through, G reflected (DIFFUSE_TAUS nodes). One bilinear fetch blends both axes as
       diffuse_shares."""

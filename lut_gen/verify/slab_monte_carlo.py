@@ -114,7 +114,6 @@ def trace(tau: float, cos_sun: float, views: np.ndarray, photons: int = 20000, s
 
 
 AZIMUTHS = np.radians(np.linspace(0.0, 180.0, 7))
-LOG_TERMS = 4
 
 
 def higher_order_samples(taus, cos_suns, cos_views, photons: int = 20000, seed: int = 7):
@@ -140,7 +139,7 @@ def higher_order_samples(taus, cos_suns, cos_views, photons: int = 20000, seed: 
     return samples
 
 
-def log_cosine_series(values, terms: int = LOG_TERMS, floor: float = 1e-12):
+def log_cosine_series(values, terms: int, floor: float = 1e-12):
     """(..., terms) least-squares coefficients c of log(values) (..., n_az) at AZIMUTHS in
     cos(k phi), k < terms: values ~ exp(sum c_k cos(k phi)). A series of the values themselves
     rang around the forward glow of thin clouds (the second order's peak toward the sun): with
