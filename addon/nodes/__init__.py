@@ -56,7 +56,7 @@ GROUPS = (
             _AERIAL_TEST if table == "multiple" else _SHAFTS_TEST) for table in COMPOSITOR_TABLES),
     Group(names.SEGMENT_GROUP, build_segment_transmittance_group, "lut_gen.passes.aerial.segment_transmittance",
           "tests/twins/test_aerial_pass.py::test_segment_transmittance_just_below_the_horizon_matches_twin"),
-    Group(names.SKY_GROUP, build_sky_group, "lut_gen.tables.lookup.Luts.sky_radiance", _SKY_TEST),
+    Group(names.SKY_GROUP, build_sky_group, "lut_gen.passes.sky_view.camera_sky", _SKY_TEST),
     Group(names.CLOUDS_GROUP, build_cloud_group, "lut_gen.clouds.sky.view", _CLOUDS_TEST),
     Group(names.CLOUD_VEIL_GROUP, build_cloud_veil_group, "lut_gen.clouds.veil.veiled", _VEIL_TEST),
     Group(names.CLOUD_VEIL_STEP_GROUP, build_cloud_veil_step_group, "lut_gen.clouds.veil.veil", _VEIL_TEST),

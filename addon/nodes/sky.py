@@ -1,8 +1,9 @@
 """"OLS Sky": the world shader. Sky radiance from the multiple-scattering atlas for the view
-direction and the camera altitude, times the extraterrestrial sun strength and the scattering
-scale, plus the lit ground below the horizon (times the sun strength, like the terrain) and the
-limb-darkened sun disc attenuated by the atmosphere (camera rays only: the Sun lamp already
-lights the scene). Twin: lut_gen.Luts.sky_radiance + ground_radiance (+ transmittance_to_top and
+direction and the camera altitude, plus the camera's twilight correction (nodes/sky_view.py),
+times the extraterrestrial sun strength and the scattering scale; the lit ground below the
+horizon (times the sun strength, like the terrain) and the limb-darkened sun disc attenuated by
+the atmosphere (camera rays only: the Sun lamp already lights the scene). Twin:
+lut_gen.passes.sky_view.camera_sky + Luts.ground_radiance (+ transmittance_to_top and
 lut_gen.model.sun_disc for the disc).
 
 The local zenith is +Z: the camera is assumed within a few km of the origin, where the Earth's
@@ -18,6 +19,7 @@ from ...lut_gen.model import sun_disc
 from .builder import group_io, new_group
 from .clouds import INPUTS as _CLOUD_GROUP_INPUTS
 from .optical import below_horizon, ground_radiance, transmittance_to_top
+from .sky_view import correction as twilight_correction
 from ..scene import names
 
 # The cloud group's settings, fed through as "Cloud <name>" inputs of the sky group.
@@ -94,9 +96,11 @@ def _cloudy(g, gin, clouds_tree, view, sun, height, sky, disc, ground, strength,
     return (g.vmath("ADD", sky, cloud_light), g.vscale(disc, clear), g.vscale(ground, clear))
 
 
-def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, ground_light_image, clouds_tree=None):
+def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, ground_light_image, clouds_tree=None,
+                    *, sky_view_image):
     """``skylight_image`` and ``ground_light_image``: the sky and the lit ground for the current
-    sun and camera height as equirectangular panoramas (scene/frame/skylight.py keeps them current).
+    sun and camera height as equirectangular panoramas, ``sky_view_image`` the camera's twilight
+    correction (lut_gen.passes.sky_view; scene/frame/skylight.py keeps all three current).
     Camera rays evaluate the exact 4D look-up and ground term; every other ray (lighting,
     reflections, EEVEE's world probe) reads the panoramas, two texture fetches: Cycles skips the
     unused branch of a Mix Shader."""
@@ -116,7 +120,9 @@ def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, 
     for name, value in (("Height", height), ("Cos View Zenith", cos_view), ("Cos Sun Zenith", cos_sun),
                         ("Cos Sun View", cos_sun_view)):
         g.feed(lookup.inputs[name], value)
-    sky = g.vscale(lookup.outputs["Radiance"], sky_scale)
+    radiance = g.vmath("ADD", lookup.outputs["Radiance"],
+                       twilight_correction(g, sky_view_image, height, cos_view, cos_sun, cos_sun_view, params))
+    sky = g.vscale(radiance, sky_scale)
 
     # Sun disc: the attenuated irradiance spread over a limb-darkened disc of the lamp's size.
     disc = g.vmath("MULTIPLY", transmittance_to_top(g, optical_depth_image, height, cos_sun, params),

@@ -87,6 +87,7 @@ CLOUD_TABLE_IMAGE = "OLS Cloud Table"             # lut_gen.clouds.slab.table_pi
 CLOUD_SEED_KEY = "ols_cloud_seed"                 # custom property of the map image: the seed it holds
 SKY_LIGHT_IMAGE = "OLS Sky Light"                 # the world-lighting panoramas
 GROUND_LIGHT_IMAGE = "OLS Ground Light"
+SKY_VIEW_IMAGE = "OLS Sky View"                    # lut_gen.passes.sky_view: the camera's twilight correction
 CLOUD_AIR_IMAGE = "OLS Cloud Air"                 # lut_gen.clouds.air_map of the frame's sun and camera height
 EPIPOLAR_LIT_IMAGE = "OLS Epipolar Lit"
 EPIPOLAR_INTEGRAL_IMAGE = "OLS Epipolar Integral"

@@ -283,12 +283,23 @@ def _packed_cells(cells: np.ndarray) -> np.ndarray:
 
 
 def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.ndarray,
-                progress: Progress) -> Tuple[np.ndarray, np.ndarray, Optional[np.ndarray]]:
+                progress: Progress, axes=None) -> Tuple[np.ndarray, np.ndarray, Optional[np.ndarray]]:
     """Single scattering without phase functions, (n_h, n_a, n_s, n_t, C) for Rayleigh, for
     Mie and for the fog (None without fog): radiance = rayleigh * P_R(nu) + mie * P_M(nu)
-    + fog * P_F(nu)."""
+    + fog * P_F(nu).
+
+    ``axes``: the rays to integrate instead of the 4D table's nodes, (heights (n_h,), cos view
+    zenith (n_h, n_a), above-horizon flags (n_a,), cos sun zenith (n_s,), sun_view) with
+    sun_view(i, rays) the (rays, n_s, n_t) cos sun-view angles of height i's view rays ``rays``
+    (lut_gen.passes.sky_view integrates a camera's sky with it)."""
     n_h, n_a, n_s, n_t = dims
-    heights, cos_view, above, cos_sun, cos_sun_view = par.grid_axes(params, dims)
+    if axes is None:
+        heights, cos_view, above, cos_sun, cos_sun_view = par.grid_axes(params, dims)
+
+        def sun_view(i, rays):
+            return par.clamp_sun_view(cos_view[i][rays, None, None], cos_sun[None, :, None], cos_sun_view[None, None, :])
+    else:
+        heights, cos_view, above, cos_sun, sun_view = axes
     n_odh, n_odc = optical_depth.shape[:2]
     # Net densities are interpolated and then exponentiated per channel; the 1e20 of Earth-hit
     # texels makes any cell that touches the Earth's shadow dark.
@@ -317,7 +328,7 @@ def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.
         i, rays = tasks[task]
         nodes = nodes_at[i].rays(rays)
         n_rays = len(nodes.s)
-        ct = par.clamp_sun_view(cos_view[i][rays, None, None], cos_sun[None, :, None], cos_sun_view[None, None, :])
+        ct = sun_view(i, rays)
         node_h = nodes.radius - params.earth_radius
         ih, wh = axis_weights(par.unit_to_centre_x(node_h / params.atmosphere_height, n_odh), n_odh)
         # The table's first row sits 39 m up and the look-up clamps there: nodes lower down
@@ -896,11 +907,13 @@ def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", ord
         return _bake_stages(params, res, orders, progress or (lambda stage, fraction: None), tail)
 
 
-def _single_to_rgb(media, table: np.ndarray) -> np.ndarray:
-    """Single scattering's spectra to RGB (spectrum.spectra_to_rgb), on every core; the Sample
-    2013 media's three wavelengths are the channels themselves."""
+def single_to_rgb(media, table: np.ndarray, parallel: bool = True) -> np.ndarray:
+    """Single scattering's spectra to RGB (spectrum.spectra_to_rgb), on every core unless not
+    ``parallel``; the Sample 2013 media's three wavelengths are the channels themselves."""
     if not media.wavelengths_nm:
         return table @ media.to_rgb.T.astype(np.float32)
+    if not parallel:
+        return spectra_to_rgb(table, media.wavelengths_nm)
     out = np.empty(table.shape[:-1] + (3,), np.float32)
 
     def convert(i):
@@ -936,7 +949,7 @@ def _bake_stages(params: AtmosphereParams, res: Resolution, orders, report: Prog
     # Bilinear cell arithmetic leaves values of ~1e-20 below zero where radiance is zero; the
     # colour conversion's negative lobes can do the same to a near-black spectrum.
     scale = par.grid_scale(params, res.scattering).astype(np.float32)
-    single, single_mie, single_fog = (None if table is None else np.maximum(_single_to_rgb(media, table), 0.0) / scale
+    single, single_mie, single_fog = (None if table is None else np.maximum(single_to_rgb(media, table), 0.0) / scale
                                       for table in (single_rayleigh, single_mie, single_fog))
     higher = np.maximum(higher, 0.0)
     timings["colour conversion"] = time.perf_counter() - t0

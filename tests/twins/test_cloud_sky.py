@@ -36,7 +36,8 @@ def build_cloudy_world(pkg, bake_dir, sun, camera_height, layer, clouds_on=1.0, 
     air_image.pixels.foreach_set(np.concatenate([atlas, np.ones(atlas.shape[:2] + (1,), np.float32)], -1).ravel())
     cloud_tree = nodes.build_cloud_group(map_image, clouds.ensure_table_image(), air_image, luts.params)
     sky = nodes.build_sky_group(images["optical_depth"], luts.params, skylight.ensure_image(), images["ambient"],
-                                skylight.ensure_ground_image(), clouds_tree=cloud_tree)
+                                skylight.ensure_ground_image(), clouds_tree=cloud_tree,
+                                sky_view_image=skylight.ensure_sky_view_image())
     group = world_of_group(bpy.context.scene, sky)
     values = {"Sun Direction": sun, "Camera Height": camera_height, "Sun Strength": STRENGTH,
               "Scattering Scale": SCALE, "Sun Angle": math.radians(0.545), "Clouds": clouds_on,
@@ -46,13 +47,15 @@ def build_cloudy_world(pkg, bake_dir, sun, camera_height, layer, clouds_on=1.0, 
               "Cloud Offset": (layer.offset[0], layer.offset[1], 0.0)}
     for name, value in values.items():
         group.inputs[name].default_value = value
-    return luts, extension_module("addon.scene.frame.cloud_map").map_ranks(map_image), atlas
+    view = skylight.write_sky_view(luts, camera_height, sun[2])
+    return luts, extension_module("addon.scene.frame.cloud_map").map_ranks(map_image), (atlas, view)
 
 
 def twin_sky(pkg, luts, ranks, layer, sun, camera_height, directions, atlas, light_shafts=False):
     cloud_sky = pkg.lut_gen.clouds.sky
     cos_sun_view = directions @ np.array(sun)
-    clear = luts.sky_radiance(camera_height, directions[..., 2], sun[2], cos_sun_view) * SCALE * STRENGTH
+    atlas, sky_view = atlas
+    clear = pkg.lut_gen.passes.sky_view.camera_sky(luts, sky_view, directions[..., 2], cos_sun_view) * SCALE * STRENGTH
     ground = luts.ground_radiance(camera_height, directions[..., 2], sun[2], cos_sun_view) * STRENGTH
     view = cloud_sky.view(luts, layer, ranks, camera_height, directions, np.array(sun),
                           air=pkg.lut_gen.clouds.air_map.lookup(atlas))
@@ -89,7 +92,7 @@ def test_cloudy_sky_render_matches_numpy_twin(addon_package, bake_dir, tmp_path,
     # The clouds change the picture: the twin without them is far off where they are.
     clear_layer = layer.__class__(coverage=0.0)
     clear_atlas = addon_package.lut_gen.clouds.air_map.compute(luts, clear_layer, 2.0, np.array(sun))
-    clear, _ = twin_sky(addon_package, luts, ranks, clear_layer, sun, 2.0, directions, clear_atlas)
+    clear, _ = twin_sky(addon_package, luts, ranks, clear_layer, sun, 2.0, directions, (clear_atlas, atlas[1]))
     assert np.median(np.abs(clear @ LUMINANCE - twin @ LUMINANCE)[clouded] / (twin @ LUMINANCE)[clouded]) > 0.1
 
 

@@ -1,5 +1,6 @@
-"""The sky and the lit ground as equirectangular panoramas for lighting: "OLS Sky Light" and
-"OLS Ground Light".
+"""The world's per-frame images: the sky and the lit ground as equirectangular panoramas for
+lighting ("OLS Sky Light" and "OLS Ground Light") and the camera's twilight correction
+("OLS Sky View", lut_gen.passes.sky_view), all for the frame's sun and camera height.
 
 Non-camera rays of the OLS Sky world read these images instead of the 4D look-up and the ground
 term (see nodes/sky.py): two texture fetches. They hold sky radiance and ground radiance per
@@ -15,7 +16,7 @@ import numpy as np
 
 from ....lut_gen.clouds import air_map
 from ....lut_gen.clouds import sky as cloud_sky
-from ....lut_gen.passes import panorama
+from ....lut_gen.passes import panorama, sky_view
 from .. import names
 
 SIZE = (512, 256)
@@ -39,6 +40,10 @@ def ensure_ground_image():
     return ensure_image(names.GROUND_LIGHT_IMAGE)
 
 
+def ensure_sky_view_image():
+    return ensure_image(names.SKY_VIEW_IMAGE, (sky_view.NODES_AZIMUTH * len(sky_view.MEDIA), sky_view.NODES_VIEW))
+
+
 def ensure_cloud_air_image():
     rows, columns = air_map.atlas_shape()
     return ensure_image(names.CLOUD_AIR_IMAGE, (columns, rows))
@@ -53,6 +58,15 @@ def _with_clouds(luts, clouds, sun, camera_height, sky, ground, camera_xy):
     hidden = view.alpha[..., None] * view.sky_behind + cloud_sky.air_taken(view)
     behind_ground = 1.0 - np.where(camera_height >= layer.middle, view.alpha, 0.0)[..., None]
     return sky - hidden, ground * behind_ground + view.light
+
+
+def write_sky_view(luts, camera_height: float, cos_sun: float):
+    """Compute the camera's twilight correction into its image; returns it (a SkyView)."""
+    view = sky_view.compute(luts, camera_height, cos_sun)
+    image = ensure_sky_view_image()
+    image.pixels.foreach_set(sky_view.image_pixels(view).ravel())
+    image.update()
+    return view
 
 
 def _write(image, radiance):
@@ -95,7 +109,11 @@ def update(info, sun_direction, camera_height: float, force=False, clouds=None, 
     if not force and _current(image, (info.key, cloud_key), sun, camera_height):
         return False
     luts = info.image_luts()
+    view = write_sky_view(luts, camera_height, float(sun[2]))
     sky, ground = panorama.panoramas(luts, sun, camera_height, SIZE)
+    # Lighting sees the same corrected sky as the camera.
+    directions = panorama.directions(*SIZE)
+    sky = sky + sky_view.correction_at(luts.params, view, directions[..., 2], directions @ sun)
     if clouds is not None:
         sky, ground = _with_clouds(luts, clouds, sun, camera_height, sky, ground, camera_xy)
     _write(image, sky)

@@ -45,7 +45,8 @@ def build_groups(bake_dir, engine="CYCLES"):
     cloud_tree = nodes.build_cloud_group(clouds.ensure_map_image(clouds.seed_of(bpy.context.scene)),
                                          clouds.ensure_table_image(), skylight.ensure_cloud_air_image(), params)
     nodes.build_sky_group(images["optical_depth"], params, skylight.ensure_image(), images["ambient"],
-                          skylight.ensure_ground_image(), clouds_tree=cloud_tree)
+                          skylight.ensure_ground_image(), clouds_tree=cloud_tree,
+                          sky_view_image=skylight.ensure_sky_view_image())
     nodes.build_cloud_shadow_group(bpy.data.images[names.CLOUD_MAP_IMAGE])
     nodes.build_cloud_veil_group(bpy.data.images[names.CLOUD_MAP_IMAGE])
     nodes.build_terrain_group(images["optical_depth"], images["ambient"], params)
