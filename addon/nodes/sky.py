@@ -121,7 +121,8 @@ def build_sky_group(optical_depth_image, params, skylight_image, ambient_image, 
                         ("Cos Sun View", cos_sun_view)):
         g.feed(lookup.inputs[name], value)
     radiance = g.vmath("ADD", lookup.outputs["Radiance"],
-                       twilight_correction(g, sky_view_image, height, cos_view, cos_sun, cos_sun_view, params))
+                       twilight_correction(g, sky_view_image, height, cos_view, cos_sun, cos_sun_view, params,
+                                           lookup.node_tree.get(names.FILTERING_KEY, "HARDWARE")))
     sky = g.vscale(radiance, sky_scale)
 
     # Sun disc: the attenuated irradiance spread over a limb-darkened disc of the lamp's size.
