@@ -1,8 +1,10 @@
 """What a sun move costs the world-lighting panoramas (addon/scene/frame/skylight.py): the sky and
 ground panoramas for the default tables computed per pixel with Luts.sky_radiance and
 Luts.ground_radiance, tables re-packed on every call (the baseline: what skylight did before),
-the same with the packed tables kept (Luts.keep_packed), and lut_gen.passes.panorama, side by side in
-one run, with the largest difference from the baseline.
+the same with the packed tables kept (Luts.keep_packed), lut_gen.passes.panorama, and what a move
+costs now: the panoramas plus the camera's twilight correction (lut_gen.passes.sky_view: its
+grid integrated, then read for every panorama pixel), side by side in one run, with the largest
+difference from the baseline (the correction's own, by design, in the last row).
 
     .venv/bin/python bench/bench_skylight.py [--repeat 5] [--height 500] [--elevation 10]
 """
@@ -18,7 +20,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 import lut_gen  # noqa: E402
-from lut_gen.passes import panorama  # noqa: E402
+from lut_gen.passes import panorama, sky_view  # noqa: E402
 
 SIZE = (512, 256)               # addon/scene/frame/skylight.py's
 
@@ -44,6 +46,16 @@ def fast(luts, sun, height):
     return (sky, ground), (middle - start, time.perf_counter() - middle)
 
 
+def corrected(luts, sun, height):
+    """skylight.update's work for a sun move: the correction and the corrected panoramas."""
+    start = time.perf_counter()
+    view = sky_view.compute(luts, height, float(sun[2]))
+    (sky, ground), (sky_s, ground_s) = fast(luts, sun, height)
+    d = panorama.directions(*SIZE)
+    sky = sky + sky_view.correction_at(luts.params, view, d[..., 2], d @ sun)
+    return (sky, ground), (time.perf_counter() - start - ground_s, ground_s)
+
+
 def worst_relative_difference(new, old):
     """max |new - old| / old where old is above 1e-6 of its maximum."""
     significant = old > 1e-6 * old.max()
@@ -63,7 +75,8 @@ def main():
     sun = np.array([0.6 * np.cos(e), 0.8 * np.cos(e), np.sin(e)])
     rows = {"per-pixel look-ups, re-packed (baseline)": lambda: per_pixel(luts, sun, args.height),
             "per-pixel look-ups, packed kept": lambda: per_pixel(packed, sun, args.height),
-            "lut_gen.passes.panorama, packed kept": lambda: fast(packed, sun, args.height)}
+            "lut_gen.passes.panorama, packed kept": lambda: fast(packed, sun, args.height),
+            "panorama + twilight correction (now)": lambda: corrected(packed, sun, args.height)}
     results = {}
     for name, run in rows.items():
         run()                   # the first call packs the kept tables (once per bake in the add-on)

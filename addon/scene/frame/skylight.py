@@ -26,6 +26,12 @@ HEIGHT_TOLERANCE_M = 1.0
 _state = {}                 # image name -> (key, sun direction, height) it was computed for
 
 
+def forget():
+    """After a file load (or undo) the images may be new and blank: recompute them next time.
+    A .blend keeps a generated image's name, not its pixels."""
+    _state.clear()
+
+
 def ensure_image(name=names.SKY_LIGHT_IMAGE, size=SIZE):
     image = bpy.data.images.get(name)
     if image is None or tuple(image.size) != tuple(size):

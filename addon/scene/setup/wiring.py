@@ -431,6 +431,7 @@ def _match_model_shafts(scene, optical_image, params):
 def forget_caches():
     wired_bake.forget()
     frame_update.forget()
+    skylight.forget()
 
 
 def unwire_scene(scene):

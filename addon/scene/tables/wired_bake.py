@@ -34,10 +34,12 @@ class BakeInfo:
         self.key = key
         luts.verify_wired(key)          # never read damaged tables (hashes cached: cheap)
         self.multiple = bpy.data.images.get(luts.image_name("multiple", key))
+        self.single = bpy.data.images.get(luts.image_name("single", key))
+        self.higher = bpy.data.images.get(luts.image_name("higher", key))
         self.single_mie = bpy.data.images.get(luts.image_name("single_mie", key))
         self.ambient = bpy.data.images.get(luts.image_name("ambient", key))
         self.optical_depth = optical_depth = bpy.data.images.get(luts.image_name("optical_depth", key))
-        if None in (self.multiple, self.single_mie, self.ambient, optical_depth):
+        if None in (self.multiple, self.single, self.higher, self.single_mie, self.ambient, optical_depth):
             raise FileNotFoundError(f"the images of bake {key} are not loaded; run Set Up Scene")
         self.params, self.dims = lut_gen.store.exr_io.read_header_params(Path(bpy.path.abspath(self.multiple.filepath)).parent)
         self.single_fog = bpy.data.images.get(luts.image_name("single_fog", key)) if self.params.has_fog else None
@@ -56,17 +58,19 @@ class BakeInfo:
         return self._luts
 
     def image_luts(self):
-        """Luts holding the tables the lighting panoramas need, read back from their images: the
-        multiple and single Mie atlases, the optical depth (stored height along x) and the
-        ambient skylight (and the fog's single atlas and column). Kept packed: the ground look-ups otherwise copied the optical-depth
-        table three times a sun move (10 ms each)."""
+        """Luts of the tables the per-frame images need (the lighting panoramas, the twilight
+        correction, the cloud air map), read back from their images: the multiple, single,
+        higher-order and single Mie atlases, the optical depth (stored height along x) and the
+        ambient skylight (and the fog's single atlas and column). Kept packed: the ground
+        look-ups otherwise copied the optical-depth table three times a sun move (10 ms each)."""
         if self._image_luts is None:
             table = atlas.unpack(_pixels(self.multiple), self.dims)
             optical_depth = _pixels(self.optical_depth)
             if self.fog_depth is not None:
                 optical_depth = np.concatenate([optical_depth, _pixels(self.fog_depth)[..., :1]], axis=-1)
             self._image_luts = Luts(
-                self.params, single=table, higher=np.zeros_like(table),
+                self.params, single=atlas.unpack(_pixels(self.single), self.dims),
+                higher=atlas.unpack(_pixels(self.higher), self.dims),
                 optical_depth=np.ascontiguousarray(optical_depth.transpose(1, 0, 2)),
                 ambient=np.ascontiguousarray(_pixels(self.ambient)[0]), multiple=table,
                 single_mie=atlas.unpack(_pixels(self.single_mie), self.dims),
