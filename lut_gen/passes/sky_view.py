@@ -29,7 +29,7 @@ import numpy as np
 
 from ..model.spectrum import bake_media
 from ..tables import parameterization as par
-from ..tables.bake import bake_single, single_to_rgb
+from ..tables.bake import bake_single, single_to_rgb, sun_depth_cells
 from ..tables.interpolation import interpolate
 from ..tables.lookup import Luts, with_phases
 
@@ -63,6 +63,18 @@ def cos_sun_view(cos_view, cos_sun, azimuth):
     return np.clip(cos_view * cos_sun + sin_view * sin_sun * np.cos(azimuth), -1.0, 1.0)
 
 
+_kept_cells = {}
+
+
+def _cells(optical_depth, media_used):
+    """bake.sun_depth_cells of the last optical-depth table seen (half of a sun move's time
+    otherwise): kept while it is the same array."""
+    kept = _kept_cells.get("cells")
+    if kept is None or kept[0] is not optical_depth or kept[1] != media_used:
+        kept = _kept_cells["cells"] = (optical_depth, media_used, sun_depth_cells(optical_depth, media_used))
+    return kept[2]
+
+
 def exact_single(luts: Luts, height_m: float, cos_sun: float, n_a: int = NODES_VIEW, n_t: int = NODES_AZIMUTH):
     """Single scattering on the grid, phase-free per medium, (n_a, n_t, 3) each: the bake's
     integrator on the camera's own rays."""
@@ -75,7 +87,8 @@ def exact_single(luts: Luts, height_m: float, cos_sun: float, n_a: int = NODES_V
         return cos_sun_view(cos_view[rays, None, None], c_s, azimuth[None, None, :])
     media = bake_media(params)
     axes = (np.array([h]), cos_view[None, :], above, np.array([c_s]), sun_view)
-    tables = bake_single(params, media, (1, n_a, 1, n_t), luts.optical_depth, lambda stage, fraction: None, axes=axes)
+    tables = bake_single(params, media, (1, n_a, 1, n_t), luts.optical_depth, lambda stage, fraction: None, axes=axes,
+                         cells=_cells(luts.optical_depth, 4 if media.has_fog else 3))
     return tuple(None if t is None else np.maximum(single_to_rgb(media, t, parallel=False), 0.0)[0, :, 0]
                  for t in tables)
 

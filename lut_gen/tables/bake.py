@@ -282,8 +282,17 @@ def _packed_cells(cells: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(cells).reshape(-1, 8).view(record).reshape(-1)
 
 
+def sun_depth_cells(optical_depth: np.ndarray, media_used: int):
+    """The optical-depth table as packed bilinear cells (bilinear_cells) for bake_single's sun
+    look-ups; a caller integrating often (lut_gen.passes.sky_view) keeps them. Net densities
+    are interpolated and then exponentiated per channel; the 1e20 of Earth-hit texels makes
+    any cell that touches the Earth's shadow dark."""
+    net = np.minimum(optical_depth, np.float32(1e6))
+    return tuple(_packed_cells(c) for c in bilinear_cells(net[..., :media_used]))
+
+
 def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.ndarray,
-                progress: Progress, axes=None) -> Tuple[np.ndarray, np.ndarray, Optional[np.ndarray]]:
+                progress: Progress, axes=None, cells=None) -> Tuple[np.ndarray, np.ndarray, Optional[np.ndarray]]:
     """Single scattering without phase functions, (n_h, n_a, n_s, n_t, C) for Rayleigh, for
     Mie and for the fog (None without fog): radiance = rayleigh * P_R(nu) + mie * P_M(nu)
     + fog * P_F(nu).
@@ -291,7 +300,8 @@ def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.
     ``axes``: the rays to integrate instead of the 4D table's nodes, (heights (n_h,), cos view
     zenith (n_h, n_a), above-horizon flags (n_a,), cos sun zenith (n_s,), sun_view) with
     sun_view(i, rays) the (rays, n_s, n_t) cos sun-view angles of height i's view rays ``rays``
-    (lut_gen.passes.sky_view integrates a camera's sky with it)."""
+    (lut_gen.passes.sky_view integrates a camera's sky with it); ``cells``:
+    sun_depth_cells(optical_depth, media used), when the caller keeps them."""
     n_h, n_a, n_s, n_t = dims
     if axes is None:
         heights, cos_view, above, cos_sun, cos_sun_view = par.grid_axes(params, dims)
@@ -301,12 +311,9 @@ def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.
     else:
         heights, cos_view, above, cos_sun, sun_view = axes
     n_odh, n_odc = optical_depth.shape[:2]
-    # Net densities are interpolated and then exponentiated per channel; the 1e20 of Earth-hit
-    # texels makes any cell that touches the Earth's shadow dark.
-    net = np.minimum(optical_depth, np.float32(1e6))
     fog = media.has_fog
     media_used = 4 if fog else 3
-    cells_low, cells_high = (_packed_cells(c) for c in bilinear_cells(net[..., :media_used]))
+    cells_low, cells_high = sun_depth_cells(optical_depth, media_used) if cells is None else cells
     extinction = media.extinction_matrix()[:media_used].astype(np.float32)
     media_scatter = np.stack([media.rayleigh, media.mie] + ([media.fog] if fog else []), axis=-1).astype(np.float32)
     k_nodes = SINGLE_NODES
