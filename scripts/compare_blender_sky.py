@@ -31,6 +31,7 @@ if str(ROOT) not in sys.path:
 
 import lut_gen  # noqa: E402
 from lut_gen.model import spectrum  # noqa: E402
+from lut_gen.passes import sky_view  # noqa: E402
 from lut_gen.store.png import to_srgb8, write_png  # noqa: E402
 
 SUN_ELEVATIONS = (60.0, 20.0, 5.0, 1.0, -2.0, -6.0)
@@ -58,7 +59,9 @@ def our_panorama(luts, sun_elevation_deg, width=WIDTH, height=HEIGHT):
     sun = math.radians(sun_elevation_deg)
     cos_sun = np.full_like(cos_view, math.sin(sun))
     cos_sun_view = np.sin(el) * math.sin(sun) + np.cos(el) * math.cos(sun) * np.cos(az)
-    return (np.asarray(luts.sky_radiance(CAMERA_HEIGHT_M, cos_view, cos_sun, cos_sun_view), np.float64)
+    # The sky the world shows: the look-up and the camera's twilight correction.
+    twilight = sky_view.compute(luts, CAMERA_HEIGHT_M, math.sin(sun))
+    return (np.asarray(sky_view.camera_sky(luts, twilight, cos_view, cos_sun_view), np.float64)
             + luts.ground_radiance(CAMERA_HEIGHT_M, cos_view, cos_sun, cos_sun_view))
 
 
@@ -271,7 +274,8 @@ CAPTION = """\
 docs/sky_comparison.png -- written by scripts/compare_blender_sky.py
 
 Left column: our sky (lut_gen numpy twin, default AtmosphereParams, "default" bake resolution,
-table "multiple" = single + higher orders, plus ground_radiance below the horizon when the Luts
+table "multiple" = single + higher orders with the camera's twilight correction
+(lut_gen.passes.sky_view), plus ground_radiance below the horizon when the Luts
 provide it). Right column: Blender {blender} Sky Texture, sky_type MULTIPLE_SCATTERING, sun disc off,
 altitude 2 m, air/aerosol/ozone density 1 (defaults), rendered with Cycles CPU through a
 panoramic equirectangular camera. Rows, top to bottom: sun elevation {elevations} deg.

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..tables.lookup import Luts
 from ..model.sun_disc import limb_profile
+from . import sky_view
 
 # The sample's extraterrestrial sun: intensity 10, scattering scale 0.5 (docs/lut_gen.md: Parameters).
 SUN_INTENSITY = 10.0
@@ -30,7 +31,9 @@ def sky_panorama(luts: Luts, sun_elevation_deg: float, width: int = 512, height:
     sun_el = np.radians(sun_elevation_deg)
     cos_sun = np.sin(sun_el)
     cos_sun_view = np.sin(el) * np.sin(sun_el) + np.cos(el) * np.cos(sun_el) * np.cos(az)
-    sky = luts.sky_radiance(camera_height_m, cos_view, cos_sun, cos_sun_view) * (SUN_INTENSITY * SCATTERING_SCALE)
+    # The sky the world shows: the look-up and the camera's twilight correction.
+    view = sky_view.compute(luts, camera_height_m, cos_sun)
+    sky = sky_view.camera_sky(luts, view, cos_view, cos_sun_view) * (SUN_INTENSITY * SCATTERING_SCALE)
     sky += luts.ground_radiance(camera_height_m, cos_view, cos_sun, cos_sun_view) * SUN_INTENSITY
     # The disc is drawn twice the real sun's size (a pixel is 0.7 deg) and 50x dimmer than the sun
     # so the tone mapping keeps the sky; limb-darkened as the world shows it.

@@ -45,6 +45,8 @@ import pytest
 
 from lut_gen import AtmosphereParams
 from lut_gen.model import spectrum
+from lut_gen.passes import sky_view
+from lut_gen.verify import reference
 from lut_gen.verify.monte_carlo import radiance_by_order
 from mc_compare import deviation, fmt, order_sum, relative_error, relative_se, sees_ground
 from rays import ray_by_elevation as ray
@@ -104,9 +106,17 @@ LOW_SUN_GEOMETRIES = {
     "2 m, view 20, sun -2, azimuth 180": ray(2, 20, -2, 180),
 }
 LOW_SUN_MAX = 0.10
+# Deep twilight, sun -6 deg: against single scattering from the spectral reference plus the
+# path tracer's orders 2-12 (its orders 1-12 had 5-8% standard errors at 8x the paths; this
+# sum's are 1.5-2.6% at 32x). The sky the camera sees (with its twilight correction) is compared.
+TWILIGHT_GEOMETRIES = {
+    "2 m, zenith, sun -6": ray(2, 90, -6, 0),
+    "2 m, view 5, sun -6, toward sun": ray(2, 5, -6, 0),
+}
 # Twilight: most collisions on the view ray lie in the Earth's shadow, so the path tracer needs
 # many more paths there (its standard errors stay ~2 % even so); toward a low sun, twice as many.
 PATH_FACTOR = {"2 m, zenith, sun -4": 8, "2 m, view 2, sun -4, toward sun": 8,
+               **{name: 32 for name in TWILIGHT_GEOMETRIES},
                **{name: (8 if name.endswith(("sun -2, toward sun", "sun -2, azimuth 180")) else 2)
                   for name in LOW_SUN_GEOMETRIES}}
 
@@ -229,6 +239,34 @@ def test_ground_radiance_matches_monte_carlo(comparison):
     errors = {name: row["ground_err"] for name, row in comparison.items() if "ground_err" in row}
     assert len(errors) >= 3
     assert max(errors.values()) <= GROUND_MAX, errors
+
+
+@pytest.fixture(scope="module")
+def twilight_comparison(default_luts):
+    rows = {}
+    for i, (name, geometry) in enumerate(TWILIGHT_GEOMETRIES.items()):
+        mc = spectral_monte_carlo(PARAMS, geometry, paths=PATHS * PATH_FACTOR[name], seed=300 + i)
+        h, cos_view, cos_sun, cos_sun_view = geometry
+        single = np.maximum(reference.spectral(reference.single_scattering, PARAMS,
+                                               *[np.atleast_1d(v) for v in geometry])[0], 0.0)
+        view = sky_view.compute(default_luts, h, cos_sun)
+        camera = sky_view.camera_sky(default_luts, view, cos_view, cos_sun_view).astype(np.float64)
+        want = single + mc.higher
+        rows[name] = {"err": relative_error(camera, want), "se": relative_se(mc.higher_se, want),
+                      "mc_err": relative_error(camera, mc.total), "mc_se": relative_se(mc.total_se, mc.total)}
+        print(f"{name}: camera sky {fmt(camera)} reference single + mc orders 2+ {fmt(want)} err "
+              f"{rows[name]['err']:.2%} se {rows[name]['se']:.2%} (against mc orders 1+: {rows[name]['mc_err']:.2%}, "
+              f"se {rows[name]['mc_se']:.2%})")
+    return rows
+
+
+def test_deep_twilight_matches_monte_carlo(twilight_comparison):
+    """Sun -6 deg (issue 26's bar: within 10%, max). Measured: 2.7% at the zenith, 3.0% 5 deg
+    up toward the sun (standard errors 2.6% and 1.5%; against the tracer's own orders 1-12,
+    2.4% and 2.5% with standard errors 4.0% and 2.9%)."""
+    assert max(row["se"] for row in twilight_comparison.values()) <= 0.03, twilight_comparison
+    errors = {name: row["err"] for name, row in twilight_comparison.items()}
+    assert max(errors.values()) <= LOW_SUN_MAX, errors
 
 
 def test_the_sunset_glow_matches_monte_carlo(low_sun_comparison):
