@@ -45,7 +45,7 @@ from ..tables.lookup import Luts
 # 2: single Mie scattering apart, ground-ray scale, spectral params.
 LAYOUT_VERSION = 2
 # Bump when the baker's numerics change (the same params then give different tables).
-BAKER_VERSION = 10  # 5: exponential optical-depth segments, columns below the first row; 6: the orders' geometric tail; 7: fog; 8: the fog's ground-ray length; 9: fog nodes by opacity, the late orders on a coarser grid; 10: single scattering by parabolas between its nodes, its spectra log-linear between wavelengths
+BAKER_VERSION = 11  # 5: exponential optical-depth segments, columns below the first row; 6: the orders' geometric tail; 7: fog; 8: the fog's ground-ray length; 9: fog nodes by opacity, the late orders on a coarser grid; 10: single scattering by parabolas between its nodes, its spectra log-linear between wavelengths; 11: the sun's net density near a point's horizon from the horizon band, the Earth's shadow exact under the table's first row
 
 FILES = {
     "single": "single_scattering.exr",

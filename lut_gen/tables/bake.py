@@ -43,7 +43,7 @@ from ..model.atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
 from ..model.spectrum import Media, bake_media, spectra_to_rgb, spectral_resample_matrix
 from .ground import GroundSource
 from ..model.geometry import clustered_nodes, distance_to_sphere_exit, radius_along
-from .interpolation import (ABSOLUTE_FLOOR, axis_weights, gather, geometric_lerp_of_logs, packed_rows,
+from .interpolation import (ABSOLUTE_FLOOR, axis_weights, gather, geometric_lerp_of_logs, interpolate, packed_rows,
                             resample_matrix, resample_separable, resample_sun_geometric)
 from .optical_depth import EARTH_HIT_NET_DENSITY, below_first_row_factors, fog_column_scale, lowest_height
 from .lookup import Luts
@@ -191,27 +191,91 @@ def bake_optical_depth(params: AtmosphereParams, n_height: int, n_cos: int,
     def fill(chunk):
         sl = slice(starts[chunk], starts[chunk] + rows)
         h = heights[sl, None]
-        r = params.earth_radius + h
-        length = distance_to_sphere_exit(r, cosines[None, :], params.top_radius)
-        s = clustered_nodes(r, cosines[None, :], length, steps).astype(np.float32)
-        node_heights = _height_along(params, h, r, cosines[None, :], s)
-        weights = _trapezoid_weights(s)
-        rayleigh, mie, ozone, fog = density_profiles(params, node_heights)
-        heights_clamped = np.maximum(node_heights, np.float32(0.0))
-        out[sl, :, 0] = _exponential_segments_integral(rayleigh, heights_clamped, params.rayleigh_scale_height, s)
-        out[sl, :, 1] = _exponential_segments_integral(mie, heights_clamped, params.mie_scale_height, s)
-        out[sl, :, 2] = np.einsum("...k,...k->...", ozone, weights) if ozone is not None else 0.0
-        if fog is not None:
-            # Divided by the lowest point's density in the integral itself: the column of a fog
-            # 20 m thick seen from 5 km up underflows float32, its ratio does not.
-            lowest = lowest_height(params, h, cosines[None, :])
-            relative = np.exp((lowest[..., None].astype(np.float32) - heights_clamped) * np.float32(1.0 / params.fog_height))
-            out[sl, :, 3] = _exponential_segments_integral(relative, heights_clamped, params.fog_height, s)
+        out[sl] = _net_densities(params, h, cosines[None, :], steps)
         hits = cosines[None, :] < par.cos_horizon(h, params.earth_radius)
-        out[sl, :, :4 if fog is not None else 3][hits] = EARTH_HIT_NET_DENSITY
+        out[sl, :, :4 if params.has_fog else 3][hits] = EARTH_HIT_NET_DENSITY
 
     _parallel_rows(fill, len(starts), progress or (lambda *a: None), "optical depth")
     return out
+
+
+def _net_densities(params: AtmosphereParams, h, cos_zenith, steps: int) -> np.ndarray:
+    """(..., 4) float32 net densities to the top of rays from heights ``h`` (..., 1) at zenith
+    cosines (..., n), the fog's divided by fog_column_scale; rays into the Earth not marked."""
+    r = params.earth_radius + h
+    length = distance_to_sphere_exit(r, cos_zenith, params.top_radius)
+    s = clustered_nodes(r, cos_zenith, length, steps).astype(np.float32)
+    node_heights = _height_along(params, h, r, cos_zenith, s)
+    weights = _trapezoid_weights(s)
+    rayleigh, mie, ozone, fog = density_profiles(params, node_heights)
+    heights_clamped = np.maximum(node_heights, np.float32(0.0))
+    out = np.zeros(np.broadcast(h, cos_zenith).shape + (4,), np.float32)
+    out[..., 0] = _exponential_segments_integral(rayleigh, heights_clamped, params.rayleigh_scale_height, s)
+    out[..., 1] = _exponential_segments_integral(mie, heights_clamped, params.mie_scale_height, s)
+    out[..., 2] = np.einsum("...k,...k->...", ozone, weights) if ozone is not None else 0.0
+    if fog is not None:
+        # Divided by the lowest point's density in the integral itself: the column of a fog
+        # 20 m thick seen from 5 km up underflows float32, its ratio does not.
+        lowest = lowest_height(params, h, cos_zenith)
+        relative = np.exp((lowest[..., None].astype(np.float32) - heights_clamped) * np.float32(1.0 / params.fog_height))
+        out[..., 3] = _exponential_segments_integral(relative, heights_clamped, params.fog_height, s)
+    return out
+
+
+# -- the horizon band --------------------------------------------------------------------
+#
+# The optical-depth table's cells next to the horizon blend Earth-hit texels (1e20): a sun ray
+# within a texel (0.002 in cosine, 0.11 deg) of grazing the ground read dark, though lit. Single
+# scattering toward a sun just under the camera's horizon comes from exactly such points (a
+# ground ray toward a sun 0.25 deg down, 172 m up: 36-48% dark; read at the first node above
+# the horizon instead, as table_net_density does, 29-53% bright). The band table holds those
+# rays' net densities on their own axis, the cosine above each height's horizon.
+
+HORIZON_BAND_NODES = 32
+HORIZON_BAND_ROWS = 256         # heights h = H_atm (k / (n - 1))^2: 1.2 m apart at the ground
+HORIZON_BAND_TEXELS = 3         # the band's width in the optical-depth table's cosine texels
+HORIZON_BAND_STEPS = 4 * OPTICAL_DEPTH_STEPS    # grazing rays cross the densest air: more nodes
+
+
+@dataclass(frozen=True)
+class SunDepths:
+    """What bake_single reads the sun's net densities from: the optical-depth table's packed
+    bilinear cells and the horizon band (HORIZON_BAND_ROWS heights from the ground up; nodes
+    evenly spaced in cosine above each row's horizon over ``band_width``)."""
+
+    cells_low: np.ndarray
+    cells_high: np.ndarray
+    band: np.ndarray            # (HORIZON_BAND_ROWS, HORIZON_BAND_NODES, 4)
+    band_width: float
+
+
+def sun_depths(params: AtmosphereParams, optical_depth: np.ndarray, media_used: int) -> SunDepths:
+    """The optical-depth table as packed bilinear cells (bilinear_cells) and its horizon band,
+    for bake_single's sun look-ups; a caller integrating often (lut_gen.passes.sky_view) keeps
+    them. Net densities are interpolated and then exponentiated per channel; the 1e20 of
+    Earth-hit texels makes a cell that touches the Earth's shadow dark, so rays within the band
+    read the band instead."""
+    net = np.minimum(optical_depth, np.float32(1e6))
+    low, high = (_packed_cells(c) for c in bilinear_cells(net[..., :media_used]))
+    n_height, n_cos = optical_depth.shape[:2]
+    width = HORIZON_BAND_TEXELS * 2.0 / n_cos
+    heights = np.linspace(0.0, 1.0, HORIZON_BAND_ROWS)[:, None] ** 2 * params.atmosphere_height
+    cosines = par.cos_horizon(heights, params.earth_radius) + np.linspace(0.0, width, HORIZON_BAND_NODES)[None, :]
+    band = _net_densities(params, heights, cosines, HORIZON_BAND_STEPS)
+    return SunDepths(low, high, band, width)
+
+
+def _band_net_density(params, depths: SunDepths, node_h, cos_node, media_used: int):
+    """(media, n) net densities of n sun rays inside the horizon band, as the main look-up gives
+    them (the fog's factor included)."""
+    h = np.clip(np.asarray(node_h, np.float64), 0.0, params.atmosphere_height)
+    horizon = par.cos_horizon(h, params.earth_radius)
+    xh = np.sqrt(h / params.atmosphere_height) * (HORIZON_BAND_ROWS - 1)
+    xd = (np.asarray(cos_node, np.float64) - horizon) / depths.band_width * (HORIZON_BAND_NODES - 1)
+    net = interpolate(depths.band[..., :media_used], (xh, xd)).astype(np.float32)
+    if media_used > 3:
+        net[:, 3] *= fog_column_scale(params, node_h, cos_node).astype(np.float32)
+    return net.T
 
 
 def _height_along(params, h, r, cos_zenith, s):
@@ -282,17 +346,8 @@ def _packed_cells(cells: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(cells).reshape(-1, 8).view(record).reshape(-1)
 
 
-def sun_depth_cells(optical_depth: np.ndarray, media_used: int):
-    """The optical-depth table as packed bilinear cells (bilinear_cells) for bake_single's sun
-    look-ups; a caller integrating often (lut_gen.passes.sky_view) keeps them. Net densities
-    are interpolated and then exponentiated per channel; the 1e20 of Earth-hit texels makes
-    any cell that touches the Earth's shadow dark."""
-    net = np.minimum(optical_depth, np.float32(1e6))
-    return tuple(_packed_cells(c) for c in bilinear_cells(net[..., :media_used]))
-
-
 def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.ndarray,
-                progress: Progress, axes=None, cells=None) -> Tuple[np.ndarray, np.ndarray, Optional[np.ndarray]]:
+                progress: Progress, axes=None, depths=None, nodes: int = None) -> Tuple[np.ndarray, np.ndarray, Optional[np.ndarray]]:
     """Single scattering without phase functions, (n_h, n_a, n_s, n_t, C) for Rayleigh, for
     Mie and for the fog (None without fog): radiance = rayleigh * P_R(nu) + mie * P_M(nu)
     + fog * P_F(nu).
@@ -300,8 +355,9 @@ def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.
     ``axes``: the rays to integrate instead of the 4D table's nodes, (heights (n_h,), cos view
     zenith (n_h, n_a), above-horizon flags (n_a,), cos sun zenith (n_s,), sun_view) with
     sun_view(i, rays) the (rays, n_s, n_t) cos sun-view angles of height i's view rays ``rays``
-    (lut_gen.passes.sky_view integrates a camera's sky with it); ``cells``:
-    sun_depth_cells(optical_depth, media used), when the caller keeps them."""
+    (lut_gen.passes.sky_view integrates a camera's sky with it); ``depths``:
+    sun_depths(params, optical_depth, media used), when the caller keeps them; ``nodes``: per
+    view ray (SINGLE_NODES)."""
     n_h, n_a, n_s, n_t = dims
     if axes is None:
         heights, cos_view, above, cos_sun, cos_sun_view = par.grid_axes(params, dims)
@@ -313,10 +369,11 @@ def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.
     n_odh, n_odc = optical_depth.shape[:2]
     fog = media.has_fog
     media_used = 4 if fog else 3
-    cells_low, cells_high = sun_depth_cells(optical_depth, media_used) if cells is None else cells
+    depths = sun_depths(params, optical_depth, media_used) if depths is None else depths
+    cells_low, cells_high = depths.cells_low, depths.cells_high
     extinction = media.extinction_matrix()[:media_used].astype(np.float32)
     media_scatter = np.stack([media.rayleigh, media.mie] + ([media.fog] if fog else []), axis=-1).astype(np.float32)
-    k_nodes = SINGLE_NODES
+    k_nodes = nodes or SINGLE_NODES
     channels = media.channels
     out_r = np.empty((n_h, n_a, n_s, n_t, channels), dtype=np.float32)
     out_m = np.empty((n_h, n_a, n_s, n_t, channels), dtype=np.float32)
@@ -365,8 +422,18 @@ def bake_single(params: AtmosphereParams, media: Media, dims, optical_depth: np.
             sun_net[m] += upper
         if fog:
             sun_net[3] *= fog_column_scale(params, node_h[:, :, None, None], cos_node)
+        horizon = par.cos_horizon(node_h, params.earth_radius).astype(np.float32)[:, :, None, None]
+        lit = cos_node >= horizon
+        in_band = np.nonzero(lit & (cos_node < horizon + np.float32(depths.band_width)))
+        if in_band[0].size:
+            sun_net[(slice(None),) + in_band] = _band_net_density(params, depths, node_h[in_band[:2]], cos_node[in_band],
+                                                                  media_used)
         depth = (-extinction.T) @ sun_net.reshape(media_used, -1)                          # (C, a*K*s*t)
         sun_trans = np.exp(depth, out=depth).reshape(channels, n_rays, k_nodes, n_s * n_t)
+        # In the Earth's shadow, exactly: a node under the table's first row (39 m up) reads
+        # that row, whose horizon is lower, and a sun between the two horizons lit it (a ground
+        # ray from 33 m toward a sun 0.15 deg down read 2.7x too bright).
+        sun_trans *= lit.reshape(1, n_rays, k_nodes, n_s * n_t)
         # Sum over nodes for all media at once, as matmuls per ray and channel (BLAS).
         ray_weights = [nodes.weight_rayleigh, nodes.weight_mie] + ([nodes.weight_fog] if fog else [])
         weights = np.stack(ray_weights, axis=-1).transpose(0, 2, 3, 1)                     # (a, C, media, K)

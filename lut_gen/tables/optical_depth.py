@@ -56,14 +56,19 @@ def horizon_safe_cos(params: AtmosphereParams, height_m, cos_zenith, n_heights: 
     Filtering otherwise mixes the EARTH_HIT_NET_DENSITY texels just below the horizon into rays
     just above it (transmittance 0 for rays within a texel, 0.002 in cosine, of grazing: a dark
     or bright line along the horizon). Rays that hit the Earth keep their cosine."""
-    height = np.asarray(height_m, dtype=np.float64)
     cos_zenith = np.asarray(cos_zenith, dtype=np.float64)
+    horizon, first_node_above = horizon_floor(params, height_m, n_heights, n_cos)
+    return np.where(cos_zenith >= horizon, np.maximum(cos_zenith, first_node_above), cos_zenith)
+
+
+def horizon_floor(params: AtmosphereParams, height_m, n_heights: int, n_cos: int):
+    """(cos of the horizon at ``height_m``, the first cos node above the horizon of the lower
+    height row a look-up there blends): horizon_safe_cos's bounds."""
+    height = np.asarray(height_m, dtype=np.float64)
     row = np.maximum(np.floor(height / params.atmosphere_height * n_heights - 0.5), 0.0)
     lower_row_height = (row + 0.5) * params.atmosphere_height / n_heights
     node = np.ceil((par.cos_horizon(lower_row_height, params.earth_radius) * 0.5 + 0.5) * n_cos - 0.5)
-    first_node_above = (node + 0.5) / n_cos * 2.0 - 1.0
-    above = cos_zenith >= par.cos_horizon(height, params.earth_radius)
-    return np.where(above, np.maximum(cos_zenith, first_node_above), cos_zenith)
+    return par.cos_horizon(height, params.earth_radius), (node + 0.5) / n_cos * 2.0 - 1.0
 
 
 def table_net_density(params: AtmosphereParams, optical_depth: np.ndarray, height_m, cos_zenith,
