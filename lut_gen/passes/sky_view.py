@@ -75,7 +75,7 @@ def _depths(params, optical_depth, media_used):
     otherwise): kept while it is the same array."""
     kept = _kept.get("depths")
     if kept is None or kept[0] is not optical_depth or kept[1] != (params, media_used):
-        kept = _kept["depths"] = (optical_depth, (params, media_used), sun_depths(params, optical_depth, media_used))
+        kept = _kept["depths"] = (optical_depth, (params, media_used), sun_depths(params, optical_depth, media_used, band=True))
     return kept[2]
 
 
