@@ -50,8 +50,8 @@ def errors(luts, cameras):
 
 
 def test_low_sun_single_scattering_meets_the_bar(default_luts):
-    """Measured on 3000 rays (30 cameras x 100, three random seeds): p99 2.9-3.3% corrected
-    against 12.8-16% for the look-up alone; median 1.0%."""
+    """Measured: here p99 1.7% against 8.9% for the look-up alone, median 0.79%; on 3000 rays
+    (30 cameras x 100) of seeds 1, 2, 3: p99 1.8-2.3% against 11-31%, median 0.81-0.87%."""
     corrected, plain = errors(default_luts, camera_rays(20, 75, seed=26, sun_elevations_deg=(-6.0, 5.0)))
     print(f"\ncorrected: median {np.median(corrected):.4f} p90 {np.percentile(corrected, 90):.4f} "
           f"p99 {np.percentile(corrected, 99):.4f}; look-up alone p99 {np.percentile(plain, 99):.4f}")
@@ -62,6 +62,7 @@ def test_low_sun_single_scattering_meets_the_bar(default_luts):
 
 
 def test_daytime_sky_is_left_as_good(default_luts):
+    """Measured: median 0.19% and p99 0.30% against 0.44% and 1.5% for the look-up alone."""
     corrected, plain = errors(default_luts, camera_rays(10, 60, seed=5, sun_elevations_deg=(10.0, 60.0)))
     print(f"\nday: corrected median {np.median(corrected):.4f} p99 {np.percentile(corrected, 99):.4f}; "
           f"look-up alone median {np.median(plain):.4f} p99 {np.percentile(plain, 99):.4f}")
