@@ -79,12 +79,13 @@ def _depths(params, optical_depth, media_used):
     return kept[2]
 
 
-def exact_single(luts: Luts, height_m: float, cos_sun: float, n_a: int = NODES_VIEW, n_t: int = NODES_AZIMUTH):
-    """Single scattering on the grid, phase-free per medium, (n_a, n_t, 3) each: the bake's
-    integrator on the camera's own rays."""
+def exact_single(luts: Luts, height_m: float, cos_sun: float, grid):
+    """Single scattering on ``grid`` (view_grid at ``height_m``), phase-free per medium,
+    (n_a, n_t, 3) each: the bake's integrator on the camera's own rays."""
     params = luts.params
     h = float(np.clip(height_m, 0.0, params.atmosphere_height))
-    cos_view, above, azimuth = view_grid(params, h, n_a, n_t)
+    cos_view, above, azimuth = grid
+    n_a, n_t = len(cos_view), len(azimuth)
     c_s = float(np.clip(cos_sun, -1.0, 1.0))
 
     def sun_view(i, rays):
@@ -101,8 +102,9 @@ def compute(luts: Luts, height_m: float, cos_sun: float, n_a: int = NODES_VIEW, 
     """The correction: exact single scattering minus the tables' look-up on the grid."""
     params = luts.params
     h = float(np.clip(height_m, 0.0, params.atmosphere_height))
-    exact = exact_single(luts, h, cos_sun, n_a, n_t)
-    cos_view, above, azimuth = view_grid(params, h, n_a, n_t)
+    grid = view_grid(params, h, n_a, n_t)
+    exact = exact_single(luts, h, cos_sun, grid)
+    cos_view, above, azimuth = grid
     ca = cos_view[:, None]
     ct = cos_sun_view(ca, float(cos_sun), azimuth[None, :])
     names = MEDIA if params.has_fog else MEDIA[:2]

@@ -329,14 +329,10 @@ def _band_net_density(params, depths: SunDepths, node_h, cos_node, media_used: i
     """(media, n) net densities of n sun rays inside the horizon band, as the main look-up gives
     them (the fog's factor included)."""
     h = np.clip(np.asarray(node_h, np.float64), 0.0, params.atmosphere_height)
-    horizon = par.cos_horizon(h, params.earth_radius)
-    i_h, w_h = axis_weights(np.sqrt(h / params.atmosphere_height) * (HORIZON_BAND_ROWS - 1), HORIZON_BAND_ROWS)
-    i_d, w_d = axis_weights((np.asarray(cos_node, np.float64) - horizon) * ((HORIZON_BAND_NODES - 1) / depths.band_width),
-                            HORIZON_BAND_NODES)
-    band = depths.band[..., :media_used]
-    w_h, w_d = w_h[:, None], w_d[:, None]
-    net = ((band[i_h, i_d] * (1 - w_d) + band[i_h, i_d + 1] * w_d) * (1 - w_h)
-           + (band[i_h + 1, i_d] * (1 - w_d) + band[i_h + 1, i_d + 1] * w_d) * w_h)
+    x_h = np.sqrt(h / params.atmosphere_height) * (HORIZON_BAND_ROWS - 1)
+    x_d = ((np.asarray(cos_node, np.float64) - par.cos_horizon(h, params.earth_radius))
+           * ((HORIZON_BAND_NODES - 1) / depths.band_width))
+    net = interpolate(depths.band[..., :media_used], (x_h, x_d))
     if media_used > 3:
         net[:, 3] *= fog_column_scale(params, node_h, cos_node).astype(np.float32)
     return net.T

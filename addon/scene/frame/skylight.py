@@ -94,6 +94,17 @@ def _update_cloud_air(info, sun, camera_height, layer, force):
     _state[image.name] = (key, sun, camera_height)
 
 
+def _update_sky_view(info, luts, sun, camera_height, force):
+    """The camera's twilight correction, recomputed only when the sun, the camera height or the
+    bake changed (a cloud change re-mixes the panoramas but leaves it)."""
+    image = ensure_sky_view_image()
+    if not force and _current(image, info.key, sun, camera_height):
+        return _state[image.name][3]
+    view = write_sky_view(luts, camera_height, float(sun[2]))
+    _state[image.name] = (info.key, sun, camera_height, view)
+    return view
+
+
 def _current(image, key, sun, camera_height) -> bool:
     """The image was last computed for ``key`` and this sun and camera height (within the
     tolerances)."""
@@ -115,7 +126,7 @@ def update(info, sun_direction, camera_height: float, force=False, clouds=None, 
     if not force and _current(image, (info.key, cloud_key), sun, camera_height):
         return False
     luts = info.image_luts()
-    view = write_sky_view(luts, camera_height, float(sun[2]))
+    view = _update_sky_view(info, luts, sun, camera_height, force)
     sky, ground = panorama.panoramas(luts, sun, camera_height, SIZE)
     # Lighting sees the same corrected sky as the camera.
     directions = panorama.directions(*SIZE)
