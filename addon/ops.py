@@ -123,8 +123,9 @@ class OLS_OT_bake_luts(bpy.types.Operator):
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         wm = context.window_manager
+        shown_now = False
         if bake.preview_ready and not self._preview_shown and not bake.superseded:
-            self._preview_shown = True
+            self._preview_shown = shown_now = True
             try:
                 self._show(context, bake.preview_directory, preview=True)
             except (wiring.SetupError, lut_gen.LutError, OSError, RuntimeError) as exc:
@@ -132,7 +133,9 @@ class OLS_OT_bake_luts(bpy.types.Operator):
         wm.progress_update(int(bake.fraction * 100))
         context.workspace.status_text_set(baking.progress_line(bake, context.scene))
         _redraw_sidebars(context)
-        if not bake.done:
+        # A preview shown in this step stays for one redraw at least, even when the full tables
+        # finished while it was being wired (the per-frame images take a moment).
+        if not bake.done or shown_now:
             return {"RUNNING_MODAL"}
         wm.event_timer_remove(self._timer)
         wm.progress_end()
