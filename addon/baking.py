@@ -27,7 +27,7 @@ from .scene import names
 from .scene import sun as sun_lamps
 from .scene.setup import wiring
 from .scene.tables import wired_bake
-from .settings import atmosphere_params, fog_fields
+from .settings import fog_fields
 
 
 def bake_directory(params, resolution="default") -> Path:
@@ -55,18 +55,23 @@ def swap_in(scene, directory, preview: bool = False):
     wiring.use_model(scene, directory)
 
 
-def settle(scene) -> bool:
-    """Before a render: a scene showing a preview (the analytic model or the draft) gets the
-    tables it asked for now (waiting for the running bake, or baking them), so that no frame
-    renders a preview. True when it swapped tables in. Also a scene still on the analytic groups
-    that asks for the tables again (a script switched the model back before they were baked)."""
+def needs_settling(scene) -> bool:
+    """Whether a render must settle the scene first: it shows a preview (the analytic model or
+    the draft) of tables still baking, or it is still on the analytic groups but asks for the
+    tables again (a script switched the model back before they were baked)."""
     stand_in = wired_bake.is_analytic(scene) and not wiring.wants_analytic(scene)
-    if not (stand_in or showing_preview(scene)):
+    return stand_in or showing_preview(scene)
+
+
+def settle(scene, params) -> bool:
+    """Before a render: a scene that ``needs_settling`` gets the tables of ``params`` (validated,
+    its own) now, waiting for the running bake or baking them, so that no frame renders a
+    preview. True when it swapped tables in."""
+    if not needs_settling(scene):
         return False
     running = latest()
     if running is not None:
         running.wait()
-    params = atmosphere_params(scene.ols).validate()
     swap_in(scene, bake_if_needed(params, scene.get(names.RESOLUTION_KEY, "default")))
     return True
 

@@ -28,7 +28,7 @@ from .scene import sun as sun_lamps
 from .scene.frame import adaptation, adaptation_plan
 from .scene.setup import checks, wiring
 from .scene.tables import luts, packed_tables
-from .settings import apply_air_preset, atmosphere_params
+from .settings import apply_air_preset, validated_params
 
 ENGINES = {"CYCLES": "CYCLES", "EEVEE": "BLENDER_EEVEE"}
 # Looks for the sample scene (and any scene): sun (elevation, azimuth from +Y toward +X, in degrees)
@@ -171,7 +171,8 @@ def apply_options(scene, args):
         scene.render.compositor_device = args.compositor_device
     if getattr(args, "atmosphere_model", None):
         scene.ols.atmosphere_model = args.atmosphere_model.upper()
-        baking.settle(scene)            # a file on the analytic model asked for the tables: bake them now
+        if baking.needs_settling(scene):    # a file on the analytic model asked for the tables: bake them now
+            baking.settle(scene, validated_params(scene.ols))
     sun = sun_lamps.find_sun(scene)
     if args.preset in AIR_PRESETS or args.preset in FOG_PRESETS:
         apply_air_preset(scene.ols, args.preset)
@@ -280,7 +281,7 @@ def wire(scene, args):
         wiring.wire_scene(scene, None, terrain, resolution=args.tables)
         return
     print("scene: baking or finding the tables", flush=True)
-    directory = baking.bake_if_needed(atmosphere_params(scene.ols).validate(), args.tables,
+    directory = baking.bake_if_needed(validated_params(scene.ols), args.tables,
                                    progress=ProgressLines("bake"))
     print(f"scene: wiring it to the tables in {directory} (node groups, images, compositor)", flush=True)
     wiring.wire_scene(scene, directory, terrain, resolution=args.tables)

@@ -22,7 +22,7 @@ from .scene import sun as sun_lamps
 from .scene.frame import adaptation, adaptation_plan, animation, frame_update
 from .scene.setup import checks, compositor, wiring
 from .scene.tables import packed_tables, wired_bake
-from .settings import atmosphere_params
+from .settings import validated_params
 
 
 def _update_scene(scene):
@@ -178,7 +178,7 @@ def on_file_loaded(*_args):
         resolution = scene.get(names.RESOLUTION_KEY, "default")
         try:
             if bpy.app.background:
-                baking.swap_in(scene, baking.bake_if_needed(atmosphere_params(scene.ols).validate(), resolution))
+                baking.swap_in(scene, baking.bake_if_needed(validated_params(scene.ols), resolution))
             else:
                 bpy.app.timers.register(lambda: baking.invoke_bake_in_window(resolution), first_interval=0.1)
         except (lut_gen.LutError, OSError, ValueError) as exc:

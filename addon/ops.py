@@ -16,7 +16,7 @@ from .scene import sun as sun_lamps
 from .scene.frame import adaptation_plan
 from .scene.setup import checks, wiring
 from .scene.tables import packed_tables, wired_bake
-from .settings import atmosphere_params
+from .settings import validated_params
 
 RESOLUTION_ITEMS = [("default", "Default", "The sample's 32 x 128 x 64 x 16 tables (~10-20 s)"),
                     ("draft", "Draft", "Half every dimension (about 2 s)")]
@@ -75,7 +75,7 @@ class OLS_OT_bake_luts(bpy.types.Operator):
     def execute(self, context):
         """Blocking bake (scripts and background mode) with the window manager's progress."""
         try:
-            params = atmosphere_params(context.scene.ols).validate()
+            params = validated_params(context.scene.ols)
         except ValueError as exc:
             self.report({"ERROR"}, f"Invalid atmosphere setting: {exc}")
             return {"CANCELLED"}
@@ -96,7 +96,7 @@ class OLS_OT_bake_luts(bpy.types.Operator):
         at once where it can stand in, the draft preview when it is ready and swap the full
         tables in when done."""
         try:
-            self._params = atmosphere_params(context.scene.ols).validate()
+            self._params = validated_params(context.scene.ols)
         except ValueError as exc:
             self.report({"ERROR"}, f"Invalid atmosphere setting: {exc}")
             return {"CANCELLED"}
@@ -179,7 +179,7 @@ class OLS_OT_setup_scene(bpy.types.Operator):
             wiring.check_scene(scene)
             directory = None            # the analytic model: no tables
             if not wiring.wants_analytic(scene):
-                directory = baking.bake_if_needed(atmosphere_params(scene.ols).validate(), self.resolution)
+                directory = baking.bake_if_needed(validated_params(scene.ols), self.resolution)
             wiring.wire_scene(scene, directory, terrain_candidates(context), resolution=self.resolution)
         except (wiring.SetupError, lut_gen.LutError, OSError, ValueError, RuntimeError) as exc:
             self.report({"ERROR"}, str(exc))
@@ -191,7 +191,7 @@ class OLS_OT_setup_scene(bpy.types.Operator):
     def invoke(self, context, event):
         try:
             wiring.check_scene(context.scene)
-            params = atmosphere_params(context.scene.ols).validate()
+            params = validated_params(context.scene.ols)
         except (wiring.SetupError, ValueError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
@@ -234,7 +234,8 @@ class OLS_OT_render(bpy.types.Operator):
             self.report({"ERROR"}, f"Not rendering: {problem}")
             return {"CANCELLED"}
         try:
-            baking.settle(scene)        # the tables asked for, not the draft preview
+            if baking.needs_settling(scene):    # the tables asked for, not the draft preview
+                baking.settle(scene, validated_params(scene.ols))
         except (lut_gen.LutError, OSError, ValueError, RuntimeError) as exc:
             self.report({"ERROR"}, f"Not rendering: the atmosphere tables cannot be baked: {exc}")
             return {"CANCELLED"}

@@ -1,118 +1,23 @@
-"""The add-on's settings as the render reads them, in plain Python (no bpy): the control sets of
-the panel, ``safe_value`` and ``Sanitized`` (every number finite and in range, sizes capped by the
-render), and ``atmosphere_params`` (the table parameters of ``lut_gen``).
+"""The add-on's settings as the render reads them, in plain Python (no bpy): ``safe_value`` and
+``Sanitized`` (every number finite and in range, sizes capped by the render), and
+``atmosphere_params`` (the table parameters of ``lut_gen``).
 
 Everything here takes any object with the PropertyGroup's attributes, so it is tested without
-registering the add-on; props.py declares the properties themselves.
+registering the add-on. The controls, their defaults and ranges are declared in the registry
+(addon/controls.py); props.py makes the properties from it.
 """
 import math
 
 import numpy as np
 
 from ..lut_gen.model.air_presets import AIR_PRESETS, air_preset_changes
-from ..lut_gen.model.atmosphere import DEFAULT_RAYLEIGH_SCATTERING, AtmosphereParams, preset
+from ..lut_gen.model.atmosphere import DEFAULT_RAYLEIGH_SCATTERING, FOG_VISIBILITY_RANGE, AtmosphereParams, preset
 from ..lut_gen.passes import render_detail
+from .controls import (BY_NAME, CONTROL_SETS, DEFAULT_MIE_COLOR, DEFAULT_RAYLEIGH_COLOR,  # noqa: F401 (the panel's views)
+                       PROPERTIES_BY_SET, RAYLEIGH_SCATTERING_SCALE, WITHOUT_EFFECT)
 
-CONTROL_SETS = ("BASIC", "ADDITIONAL", "TONE_MAPPING", "CLOUDS")
-
-# The controls of each set, in the sample's panel order.
-PROPERTIES_BY_SET = {
-    "BASIC": [
-        "enable_light_scattering",
-        "enable_light_shafts",
-        "scattering_technique",
-        "shadow_map_resolution",
-        "num_integration_steps",
-        "jitter_steps",
-        "epipolar_slices",
-        "samples_per_slice",
-        "initial_sample_step",
-        "epipole_sampling_density",
-        "refinement_threshold",
-        "scattering_scale",
-        "show_sampling",
-        "use_min_max_optimization",
-        "optimize_sample_locations",
-        "correct_depth_breaks",
-        "show_depth_breaks",
-        "lighting_only",
-    ],
-    "ADDITIONAL": [
-        "single_scattering_mode",
-        "multiple_scattering_mode",
-        "num_cascades",
-        "show_cascades",
-        "smooth_shadows",
-        "best_cascade_search",
-        "cascade_partitioning_factor",
-        "first_cascade_to_ray_march",
-        "extinction_evaluation_mode",
-        "refinement_criterion",
-        "use_custom_scattering_coeffs",
-        "rayleigh_color",
-        "mie_color",
-        "air_preset",
-        "aerosol_density",
-        "aerosol_absorption",
-        "atmosphere_model",
-        "atmosphere_preset",
-        "ground_albedo",
-        "ozone_column",
-        "fog_visibility",
-        "fog_height",
-        "animate_sun",
-        "day_start_frame",
-        "day_end_frame",
-    ],
-    "TONE_MAPPING": [
-        "middle_gray",
-        "white_point",
-        "luminance_saturation",
-        "auto_exposure",
-        "tone_mapping_operator",
-        "light_adaptation",
-        "tone_map_exr",
-    ],
-    "CLOUDS": [
-        "clouds_enabled",
-        "cloud_preset",
-        "cloud_coverage",
-        "cloud_base",
-        "cloud_thickness",
-        "cloud_density",
-        "cloud_scale",
-        "cloud_seed",
-        "cloud_offset",
-    ],
-}
-
-# The sample's controls that have no counterpart in this design, and why: the panel greys them
-# out and their tooltips end with the reason (lut_gen.passes.epipolar).
-WITHOUT_EFFECT = {
-    "optimize_sample_locations": "(no effect: samples are spaced by angle from the sun, so short epipolar "
-                                 "lines are not oversampled)",
-    "correct_depth_breaks": "(not needed: each pixel reads the epipolar tables at its own depth, so no pixel "
-                            "is interpolated across a depth break)",
-    "show_depth_breaks": "(not needed: each pixel reads the epipolar tables at its own depth, so there are no "
-                         "depth breaks to correct)",
-    "extinction_evaluation_mode": "(extinction is always evaluated per pixel)",
-    "refinement_criterion": "(refinement always compares the lit length of neighbouring samples; depth plays "
-                            "no part since each pixel uses its own)",
-}
-
-# The largest default Rayleigh coefficient (blue); the Rayleigh colour is relative to it.
-RAYLEIGH_SCATTERING_SCALE = max(DEFAULT_RAYLEIGH_SCATTERING)
-DEFAULT_RAYLEIGH_COLOR = tuple(c / RAYLEIGH_SCATTERING_SCALE for c in DEFAULT_RAYLEIGH_SCATTERING)
-DEFAULT_MIE_COLOR = (1.0, 1.0, 1.0)
-
-# The panel's fog: visibility 100 m (a dense fog) to 50 km (a trace), 0 for none; scale heights
-# of 10 m (a shallow radiation fog) to 500 m (a deep valley fog). Below 100 m of visibility
-# (or 10 m of height) the tables' height axis stops resolving the layer near the camera.
-FOG_VISIBILITY_MIN_M = 100.0
-FOG_VISIBILITY_MAX_M = 50_000.0
-FOG_HEIGHT_MIN_M = 10.0
-FOG_HEIGHT_MAX_M = 500.0
-
+# The fog's lowest visibility the tables resolve: a value between 0 (no fog) and it reads as it.
+FOG_VISIBILITY_MIN_M = FOG_VISIBILITY_RANGE[0]
 
 
 def safe_value(settings, name: str):
@@ -123,7 +28,12 @@ def safe_value(settings, name: str):
     value = getattr(settings, name)
     rna = getattr(settings, "bl_rna", None)         # None: a plain object standing in for scene.ols
     prop = rna.properties.get(name) if rna is not None else None
-    if prop is None or prop.type not in {"FLOAT", "INT"} or getattr(prop, "array_length", 0):
+    if prop is None:
+        control = BY_NAME.get(name)
+        return value if control is None else control.clamp(value)
+    # The property's own range and default: the registry's, as Blender stores them (float32),
+    # so a clamped value equals what the panel's slider gives at its end.
+    if prop.type not in {"FLOAT", "INT"} or getattr(prop, "array_length", 0):
         return value
     if prop.type == "FLOAT" and not math.isfinite(value):
         value = prop.default
@@ -221,6 +131,13 @@ def atmosphere_params(settings) -> AtmosphereParams:
         ozone_column=_f32_value(settings.ozone_column),
         **fog_fields(settings),
     )
+
+
+def validated_params(settings) -> AtmosphereParams:
+    """``atmosphere_params`` validated: the one place the scene's controls become parameters a
+    bake accepts. Called where a request enters (an operator, a render or load handler, the
+    batch CLI, a control's update) and handed down as it is. ValueError names the bad field."""
+    return atmosphere_params(settings).validate()
 
 
 def analytic_params(settings) -> AtmosphereParams:

@@ -4,8 +4,8 @@ import textwrap
 import bpy
 
 from . import baking
+from .controls import ENABLED_BY, PROPERTIES_BY_SET, WITHOUT_EFFECT
 from .scene.tables import wired_bake
-from .settings import PROPERTIES_BY_SET, WITHOUT_EFFECT
 
 # (operator idname, button text, icon); written in addon/ops.py.
 OPERATORS = (
@@ -15,24 +15,6 @@ OPERATORS = (
     ("ols.measure_adaptation", "Measure Light Adaptation", 'RENDER_ANIMATION'),
     ("ols.pack_tables", "Pack Tables", 'PACKAGE'),
 )
-
-# Controls whose row is enabled only while a condition on the settings holds.
-ENABLED_BY = {
-    "rayleigh_color": lambda settings: settings.use_custom_scattering_coeffs,
-    "mie_color": lambda settings: settings.use_custom_scattering_coeffs,
-    "ground_albedo": lambda settings: settings.atmosphere_preset == "CLEAR_SKY",
-    "ozone_column": lambda settings: settings.atmosphere_preset == "CLEAR_SKY",
-    "fog_height": lambda settings: settings.fog_visibility > 0.0,
-    "day_start_frame": lambda settings: settings.animate_sun,
-    "day_end_frame": lambda settings: settings.animate_sun,
-    "jitter_steps": lambda settings: settings.scattering_technique == "BRUTE_FORCE",
-    **{name: (lambda settings: settings.scattering_technique == "EPIPOLAR_SAMPLING")
-       for name in ("epipolar_slices", "samples_per_slice", "initial_sample_step", "epipole_sampling_density",
-                    "refinement_threshold", "show_sampling", "use_min_max_optimization")},
-    **{name: (lambda settings: settings.clouds_enabled)
-       for name in ("cloud_preset", "cloud_coverage", "cloud_base", "cloud_thickness", "cloud_density", "cloud_scale",
-                    "cloud_seed", "cloud_offset")},
-}
 
 
 def operator_available(idname):

@@ -82,10 +82,12 @@ MAX_COEFFICIENT = 1e-2
 # droplets at 550 nm; Hess et al. 1998, OPAC "fog").
 KOSCHMIEDER_CONSTANT = -math.log(0.02)
 FOG_G = 0.85
-# Visibility from 10 m (thicker than any real fog: the tables' height axis stops resolving the
-# layer there) to 100 km (no visible fog); 0 means no fog.
-FOG_VISIBILITY_RANGE = (10.0, 100_000.0)
-FOG_HEIGHT_RANGE = (1.0, 5_000.0)
+# Visibility from 100 m (a dense fog; below it, or under 10 m of scale height, the tables'
+# height axis stops resolving the layer near a camera on the ground) to 50 km (a trace); 0 means
+# no fog. Scale heights from 10 m (a shallow radiation fog) to 500 m (a deep valley fog). The
+# panel's Fog controls take these limits (addon/control_sets/additional.py).
+FOG_VISIBILITY_RANGE = (100.0, 50_000.0)
+FOG_HEIGHT_RANGE = (10.0, 500.0)
 
 
 def fog_extinction(visibility_m: float) -> float:

@@ -219,5 +219,6 @@ def test_the_analytic_model_stands_in_only_where_it_shows_what_the_scene_asks_fo
     # analytic aerial group's), and not rebuilt as the analytic ones, not even by a scene update.
     extension_module("addon.scene.setup.wiring").match_light_shaft_layout(scene)
     assert shafts.mute and shafts.node_tree[names.LAYOUT_KEY] == layout
-    assert baking.settle(scene) and scene[names.WIRED_KEY] == key and not baking.showing_preview(scene)
+    params = extension_module("addon.settings").validated_params(scene.ols)     # what a render hands down
+    assert baking.settle(scene, params) and scene[names.WIRED_KEY] == key and not baking.showing_preview(scene)
     assert not shafts.mute and shafts.node_tree[names.LAYOUT_KEY] == layout
