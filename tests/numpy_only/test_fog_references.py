@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from lut_gen.model.atmosphere import AtmosphereParams, mie_phase
-from lut_gen.verify import cloud_monte_carlo, fog, reference as ref
+from lut_gen.verify import cloud_monte_carlo, fog, reference as ref, reference_rays
 from lut_gen.verify.monte_carlo import radiance_by_order
 from rays import ray_by_elevation as ray
 
@@ -145,7 +145,7 @@ def test_monte_carlo_sees_the_sunlit_ground_through_the_fog(visibility, big_h):
     view = np.array([math.sqrt(1 - mu_v ** 2), 0.0, mu_v])
     sun = np.array([0.0, math.sqrt(1 - mu_s ** 2), mu_s])  # azimuth 90 from the view
     assert abs(view @ sun - nu) < 1e-12
-    d = ref._distance_to_ground(p, camera[2], mu_v)
+    d = reference_rays._distance_to_ground(p, camera[2], mu_v)
     ground = camera + d * view
     up = ground / np.linalg.norm(ground)
     sun_there = float(up @ sun)
