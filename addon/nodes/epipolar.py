@@ -2,7 +2,8 @@
 through the shadow maps, read the lit length, the first lit distance and (INTEGRATION) the
 shadowed single scattering at the pixel's own depth from the tables lut_gen.passes.epipolar builds
 before each frame, then apply the scattering modes from the in-scattering tables of
-lut_gen.passes.epipolar_air (no per-pixel eq. 8). Twin: lut_gen.passes.epipolar_air.light_shaft_difference.
+lut_gen.passes.epipolar_air (no per-pixel Yusov 2013 eq. (8)). Twin:
+lut_gen.passes.epipolar_air.light_shaft_difference.
 
 Table image "OLS Epipolar Lit" (RGBA: lit length, first lit): row i * K + k holds slice node
 i at distance node k, column j sample node j; "OLS Epipolar Integral" (RGB) the same for the
@@ -17,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...lut_gen.passes import epipolar, epipolar_air
+from ...lut_gen.passes import epipolar, epipolar_air, epipolar_grid
 from .lookup import mie_phase, rayleigh_phase
 from ..scene import names
 
@@ -187,7 +188,7 @@ def in_scattering(g, gin, direction, length, sun, geometry, layout, images, para
     distances = {"end": length, "first": first_lit, "lit_end": g.add(first_lit, lit_length)}
 
     air_grid = _Grid(g, gin.outputs["Epipolar Air Grid"], across, along)
-    air_growth = g.div(reach, epipolar.MIN_NEAR)
+    air_growth = g.div(reach, epipolar_grid.MIN_NEAR)
     coordinates_at, fetched = {}, {}
 
     def fetch(table, name):

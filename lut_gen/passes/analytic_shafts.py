@@ -7,7 +7,7 @@ The shadows are found exactly as for the tables: the same march of shadow tests
 tables (lut_gen.passes.epipolar). Only the air's light differs, and there the model needs no
 table: along a pixel's ray the aerial perspective holds air and haze at constant densities (those
 of the ray's middle height, analytic.segment_densities), so the in-scattering gathered from the
-camera out to distance t is Eq. 4's closed form
+camera out to distance t is Hoffman & Preetham 2002 Eq. 4's closed form
 
     I(t) = E_sun beta_sc(theta) (1 - exp(-beta t)) / beta,
 
@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import analytic
-from . import aerial, epipolar, jitter, scattering_pass as tables_pass
+from . import aerial, epipolar, epipolar_grid, jitter, scattering_pass as tables_pass
 from .shadow_map import Camera, ShadowCascades, visibility
 
 # exp's argument ceiling, as the node groups keep it (nodes/analytic.py MAX_DEPTH): past it the
@@ -51,7 +51,7 @@ INTEGRAL_CHUNK = 2048
 
 def reach(beta, length):
     """(1 - exp(-beta s)) / beta per channel (``beta`` (..., 3), ``length`` (...)): the
-    distance a segment of length s weighs in Eq. 4, s itself where beta is 0 (-expm1 keeps a
+    distance a segment of length s weighs in Hoffman & Preetham 2002 Eq. 4, s itself where beta is 0 (-expm1 keeps a
     small beta s accurate)."""
     beta = np.asarray(beta, dtype=np.float64)
     length = np.asarray(length, dtype=np.float64)[..., None]
@@ -178,8 +178,8 @@ def build_epipolar_tables(m: analytic.AnalyticMedia, camera: Camera, sun, cascad
     march (no clouds: the analytic model has none), its INTEGRATION table from
     epipolar_integral. ``settings``: scene.ols sanitized or a PassSettings. What the add-on
     writes before each frame (addon/scene/frame/epipolar_tables.py) and the twin reads."""
-    wanted = epipolar.for_render(epipolar.settings_from(settings), width, height)
-    frame = epipolar.frame_for(camera, sun, width, height, float(cascades.far_depths[-1]), wanted)
+    wanted = epipolar_grid.for_render(epipolar_grid.settings_from(settings), width, height)
+    frame = epipolar_grid.frame_for(camera, sun, width, height, float(cascades.far_depths[-1]), wanted)
     integrate = settings.single_scattering_mode == "INTEGRATION"
     tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
                                    settings.best_cascade_search, settings.first_cascade_to_ray_march, None, integrate,

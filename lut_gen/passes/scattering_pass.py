@@ -10,9 +10,10 @@ shadow cascade (sky):
     geometry: L_surface T(C->P) + S(C->E) x sun x scale
     sky:      L_sky + (S(C->E) - S_unshadowed(C->E)) x sun x scale
 where S is the light-shaft in-scattering (lut_gen.passes.aerial.light_shafts, the sample's modes) and
-S_unshadowed is eq. (8) over the multiple-scattering table, which the rendered sky already holds.
+S_unshadowed is Yusov 2013 eq. (8) over the multiple-scattering table, which the rendered sky already holds.
 Without light shafts S = S_unshadowed (aerial perspective only). With the epipolar technique
-both S and S_unshadowed come from its tables (lut_gen.passes.epipolar_air), not from eq. (8) per pixel.
+both S and S_unshadowed come from its tables (lut_gen.passes.epipolar_air), not from Yusov 2013 eq. (8)
+per pixel.
 """
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import aerial, epipolar, epipolar_air, jitter
+from . import aerial, epipolar, epipolar_air, epipolar_grid, jitter
 from ..clouds import shafts as cloud_shafts
 from ..clouds import veil as cloud_veil
 from ..clouds.layer import RANGES as CLOUD_RANGES
@@ -146,8 +147,8 @@ def sky_shadow_share(image, unshadowed, geometry):
     """(..., 3) the share of the shafts' darkening a pixel takes: 1 on surfaces; on the sky the
     rendered sky over the unshadowed air light in front of it, at most 1. A sky pixel holds at
     least that air light, so it takes the whole darkening; an antialiased pixel on a silhouette
-    holds part sky, part a dark surface, yet its depth says sky, and the whole darkening left it
-    below zero, clamped per channel to teal (EEVEE, sun behind a peak). Each channel now loses
+    holds part sky, part a dark surface, yet its depth says sky, and the whole darkening would leave
+    it below zero, clamped per channel to teal (EEVEE, sun behind a peak). So each channel loses
     the shadowed fraction of its air light, as a darker sky seen through the same air would: the
     pixel darkens with every channel kept, its hue nearly so (the fractions differ by channel)."""
     share = np.clip(np.asarray(image) / np.maximum(unshadowed, 1e-20), 0.0, 1.0)     # >= 0: filter ringing
@@ -165,9 +166,9 @@ def epipolar_pass(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades
                   width: int, height: int, clouds=None):
     """(unshadowed in-scattering, shadowed minus unshadowed, Show Sampling's overlay or None)
     per unit sun of every pixel, from the epipolar tables (lut_gen.passes.epipolar, epipolar_air)."""
-    wanted = epipolar.for_render(epipolar.settings_from(settings), width, height)
-    frame = epipolar.frame_for(camera, sun, width, height, float(cascades.far_depths[-1]), wanted,
-                               epipolar.cloud_reach(clouds, camera, width, height, luts.params.earth_radius))
+    wanted = epipolar_grid.for_render(epipolar_grid.settings_from(settings), width, height)
+    frame = epipolar_grid.frame_for(camera, sun, width, height, float(cascades.far_depths[-1]), wanted,
+                                    epipolar_grid.cloud_reach(clouds, camera, width, height, luts.params.earth_radius))
     tables = epipolar.build_tables(frame, cascades, camera, wanted, settings.smooth_shadows,
                                    settings.best_cascade_search, settings.first_cascade_to_ray_march, luts,
                                    settings.single_scattering_mode == "INTEGRATION", clouds)
@@ -184,7 +185,7 @@ def epipolar_pass(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades
 def light_shafts(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades, settings: PassSettings,
                  unshadowed, clouds=None):
     """Shadowed minus ``unshadowed`` in-scattering per unit sun of every pixel by brute-force
-    ray marching (eq. 8 per pixel); ``clouds`` shadow the air too (lut_gen.clouds.shafts)."""
+    ray marching (Yusov 2013 eq. (8) per pixel); ``clouds`` shadow the air too (lut_gen.clouds.shafts)."""
     def is_lit(points):
         return visibility(cascades, points, camera, settings.smooth_shadows,
                           settings.best_cascade_search, settings.first_cascade_to_ray_march)

@@ -2,14 +2,15 @@
 sky model's clouds (lut_gen.clouds.sky, the twin of the "OLS Clouds" node group) are checked
 against (tests/numpy_only/test_cloud_monte_carlo.py).
 
-The medium is lut_gen.verify.monte_carlo's (Rayleigh, Mie and ozone of lut_gen.model.atmosphere,
-a Lambertian ground) plus the cloud layer at coverage 1: a spherical shell between ``base`` and
-``base + thickness`` above the ground of constant, grey extinction ``density`` that only scatters
-(single-scattering albedo 1), with the cloud phase function of lut_gen.model.cloud_medium. A layer
-at coverage 1 fills every column to its full thickness (field.thickness_fraction is 1 for every
-rank), so the whole medium is spherically symmetric. It shares no code with the cloud model
-(slab.radiance, sky.view): only the media definitions and monte_carlo's geometry, optical-depth
-quadrature and phase-function samplers.
+The medium is the atmosphere tracer's (lut_gen.verify.monte_carlo_media: Rayleigh, Mie and ozone
+of lut_gen.model.atmosphere, a Lambertian ground) plus the cloud layer at coverage 1: a spherical
+shell between ``base`` and ``base + thickness`` above the ground of constant, grey extinction
+``density`` that only scatters (single-scattering albedo 1), with the cloud phase function of
+lut_gen.model.cloud_medium. A layer at coverage 1 fills every column to its full thickness
+(field.thickness_fraction is 1 for every rank), so the whole medium is spherically symmetric. It shares no code with the cloud model
+(slab.radiance, sky.view): only the media definitions and the atmosphere tracer's geometry,
+optical-depth quadrature and phase-function samplers (lut_gen.verify.monte_carlo_media,
+monte_carlo_segments, monte_carlo_events).
 
 Why a tracer of its own rather than monte_carlo's forced collisions: a cloud of optical
 thickness 20 takes hundreds of scatterings per path, and integrating every segment's optical
@@ -56,7 +57,7 @@ from ..clouds import field
 from ..clouds.layer import CloudLayer
 from ..model import cloud_medium
 from ..model.atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
-from . import monte_carlo as mc
+from . import monte_carlo_events as mc_events, monte_carlo_media as mc_media, monte_carlo_segments as mc_segments
 from .slab_monte_carlo import _sample_phase as _sample_cloud_cos
 
 __all__ = ["CloudShell", "CloudRadiance", "radiance", "irradiance", "direct_transmittance", "DEFAULT_PATHS"]
@@ -112,14 +113,14 @@ class CloudRadiance:
 
 @dataclass(frozen=True)
 class _Medium:
-    air: mc._Media
+    air: mc_media._Media
     radii: np.ndarray        # (4,) ground, cloud base, cloud top, top of the atmosphere
     density: float           # the cloud's extinction
     majorant: np.ndarray     # (3,) per shell: below the cloud, in it, above it
 
     @classmethod
     def of(cls, params: AtmosphereParams, shell: CloudShell) -> "_Medium":
-        air = mc._Media.of(params)
+        air = mc_media._Media.of(params)
         big_r = params.earth_radius
         base = min(max(shell.base, 0.0), params.atmosphere_height)
         top = min(max(shell.top, base), params.atmosphere_height)
@@ -133,7 +134,7 @@ class _Medium:
 
     def coefficients(self, points, in_cloud):
         """(N, 3) Rayleigh and Mie scattering, cloud scattering (N,) and extinction (N, 3)."""
-        r = mc._norm(points)
+        r = mc_media._norm(points)
         beta_r, beta_m, _ = self.air.scattering(r)  # no fog here (_checked)
         dens = [d if d is not None else np.zeros_like(r) for d in self.air.densities(r)]
         cloud = np.where(in_cloud, self.density, 0.0)
@@ -171,23 +172,24 @@ def _cloud_transmittance(medium: _Medium, points, suns):
     (N, 3)."""
     if medium.density <= 0.0:
         return np.ones(points.shape[0])
-    r = mc._norm(points)
-    mu = np.clip(mc._dot(points, suns) / r, -1.0, 1.0)
+    r = mc_media._norm(points)
+    mu = np.clip(mc_media._dot(points, suns) / r, -1.0, 1.0)
     chord = _inside_length(r, mu, medium.radii[2]) - _inside_length(r, mu, medium.radii[1])
     return np.exp(-medium.density * np.maximum(chord, 0.0))
 
 
-_GAUSS = np.polynomial.legendre.leggauss(mc.SUN_GAUSS_NODES)
+_GAUSS = np.polynomial.legendre.leggauss(mc_segments.SUN_GAUSS_NODES)
 
 
-def _air_transmittance(air: mc._Media, points, suns):
+def _air_transmittance(air: mc_media._Media, points, suns):
     """(N, 3) the air's transmittance from the points to the top along their sun directions
     (N, 3), 0 where the Earth hides the sun: monte_carlo's sun-ray quadrature, for a sun per
     point (every vertex's suns in one call) and with its Gauss nodes made once."""
-    r = np.clip(mc._norm(points), air.earth_radius, air.top_radius)
-    mu = np.clip(mc._dot(points, suns) / r, -1.0, 1.0)
-    blocked, _ = mc._ground_hit(air, r, mu)
-    nodes = mc._ray_nodes(air, r, mu, mc._distance_to_top(air, r, mu), mc.SUN_SIDE_INTERVALS)
+    r = np.clip(mc_media._norm(points), air.earth_radius, air.top_radius)
+    mu = np.clip(mc_media._dot(points, suns) / r, -1.0, 1.0)
+    blocked, _ = mc_media._ground_hit(air, r, mu)
+    nodes = mc_segments._ray_nodes(air, r, mu, mc_media._distance_to_top(air, r, mu),
+                                   mc_segments.SUN_SIDE_INTERVALS)
     x, w = _GAUSS
     mid = 0.5 * (nodes[:, 1:] + nodes[:, :-1])
     half = 0.5 * (nodes[:, 1:] - nodes[:, :-1])
@@ -231,8 +233,8 @@ def _scatter(medium: _Medium, beta_r, beta_m, cloud, direction, rng):
     shares /= np.maximum(shares.sum(axis=1, keepdims=True), 1e-300)
     pick = (rng.random(n)[:, None] > np.cumsum(shares, axis=1)).sum(axis=1).clip(0, 2)
     cos_theta = np.empty(n)
-    for k, sampler in enumerate((lambda m: mc._sample_rayleigh_cos(rng, m),
-                                 lambda m: mc._sample_mie_cos(rng, m, medium.air.params.mie_g),
+    for k, sampler in enumerate((lambda m: mc_events._sample_rayleigh_cos(rng, m),
+                                 lambda m: mc_events._sample_mie_cos(rng, m, medium.air.params.mie_g),
                                  lambda m: _sample_cloud_cos(np.zeros(m), rng))):
         mask = pick == k
         if mask.any():
@@ -240,7 +242,7 @@ def _scatter(medium: _Medium, beta_r, beta_m, cloud, direction, rng):
     pdf = (shares[:, 0] * rayleigh_phase(cos_theta) + shares[:, 1] * mie_phase(cos_theta, medium.air.params.mie_g)
            + shares[:, 2] * cloud_medium.phase(cos_theta))
     kernel = _kernel(beta_r, beta_m, cloud, cos_theta, medium.air.params.mie_g)
-    return mc._around(direction, cos_theta, rng), kernel / np.maximum(pdf, 1e-300)[:, None]
+    return mc_media._around(direction, cos_theta, rng), kernel / np.maximum(pdf, 1e-300)[:, None]
 
 
 def _pairs(points, suns):
@@ -262,7 +264,8 @@ def _score_ground(medium: _Medium, points, suns, rng):
     """(N, S, 3) next-event estimates toward every sun at ground vertices (Lambertian)."""
     n, count = points.shape[0], len(suns)
     at, toward = _pairs(points, suns)
-    lambert = medium.air.params.ground_albedo / math.pi * np.maximum(mc._dot(at, toward) / mc._norm(at), 0.0)
+    lambert = (medium.air.params.ground_albedo / math.pi
+               * np.maximum(mc_media._dot(at, toward) / mc_media._norm(at), 0.0))
     return (lambert[:, None] * _sun_transmittance(medium, at, toward, rng)).reshape(n, count, 3)
 
 
@@ -283,7 +286,7 @@ def _walk(medium: _Medium, camera, directions, suns, rng) -> np.ndarray:
     for _ in range(MAX_STEPS):
         if ids.size == 0:
             break
-        r = mc._norm(points)
+        r = mc_media._norm(points)
         mu = np.clip(np.einsum("ni,ni->n", points, direction) / r, -1.0, 1.0)
         exit_at, inward = _shell_exit(r, mu, medium.radii[shell], medium.radii[shell + 1])
         majorant = medium.majorant[shell]
@@ -295,7 +298,7 @@ def _walk(medium: _Medium, camera, directions, suns, rng) -> np.ndarray:
         crossing = ~collide
         boundary = np.where(inward, shell, shell + 1)
         onto = medium.radii[boundary]
-        points[crossing] *= (onto[crossing] / mc._norm(points[crossing]))[:, None]
+        points[crossing] *= (onto[crossing] / mc_media._norm(points[crossing]))[:, None]
         ground = crossing & inward & (shell == 0)
         escaped = crossing & ~inward & (shell == 2)
         shell = np.where(crossing & ~ground & ~escaped, np.where(inward, shell - 1, shell + 1), shell)
@@ -324,8 +327,8 @@ def _walk(medium: _Medium, camera, directions, suns, rng) -> np.ndarray:
         g = np.flatnonzero(ground)
         if g.size:
             score[ids[g]] += weight[g][:, None, :] * _score_ground(medium, points[g], suns, rng)
-            normal = points[g] / mc._norm(points[g])[:, None]
-            direction[g] = mc._around(normal, np.sqrt(rng.random(g.size)), rng)
+            normal = points[g] / mc_media._norm(points[g])[:, None]
+            direction[g] = mc_media._around(normal, np.sqrt(rng.random(g.size)), rng)
             weight[g] = weight[g] * albedo
         # Russian roulette after events, on the largest channel weight.
         top = weight.max(axis=1)
@@ -395,7 +398,7 @@ def irradiance(params: AtmosphereParams, layer: CloudLayer | None, height_m: flo
     up = np.array([[0.0, 0.0, 1.0]])
 
     def directions(n):
-        return mc._around(np.repeat(up, n, axis=0), np.sqrt(rng.random(n)), rng)
+        return mc_media._around(np.repeat(up, n, axis=0), np.sqrt(rng.random(n)), rng)
     return _estimate(medium, _camera(params, height_m), directions, _suns(suns), paths, rng, scale=math.pi)
 
 

@@ -6,7 +6,7 @@ one fixed exposure curve."""
 import numpy as np
 import pytest
 
-from lut_gen.passes import aerial, epipolar, scattering_pass, shadow_map
+from lut_gen.passes import aerial, epipolar, epipolar_grid, scattering_pass, shadow_map
 from lut_gen.passes.shadow_map import Camera
 from occluders import CAMERA, SCALE, SUN_STRENGTH, Scene, compare, fence, look_at, pillars, sun_at
 
@@ -63,7 +63,7 @@ def test_sky_pixels_darker_than_their_air_keep_their_hue(draft_luts, technique):
     silhouette pixel, part sky, part dark surface, whose depth says sky) loses the shadowed
     fraction of its air light per channel instead of going below zero in one channel (teal
     pixels on a peak's outline against the sun). Sky pixels brighter than their air lose the
-    whole darkening, as before."""
+    whole darkening."""
     scene = Scene(pillars(), CAMERA, sun_at(4.0, 5.0), 96, 54)
     sky = ~scene.geometry
     settings = dict(scattering_technique=technique, num_integration_steps=16, epipolar_slices=128,
@@ -79,7 +79,7 @@ def test_sky_pixels_darker_than_their_air_keep_their_hue(draft_luts, technique):
     # Subtracting the whole darkening would have blacked out channels of these pixels...
     subtracted = scene.image + (bright - np.where(sky[..., None], 2.0, bright))
     assert (subtracted[darkened] <= 0.0).any()
-    # ... which now each lose their air light's shadowed fraction: darker, every channel alive.
+    # ... which instead each lose their air light's shadowed fraction: darker, every channel alive.
     ratio = dim[darkened] / scene.image[darkened]
     assert np.all(ratio > 0.0)
     assert np.all(ratio[:, 0] < 0.99)                                  # the shafts still show
@@ -161,11 +161,11 @@ def test_sampling_controls_change_the_tables():
     assert coarse[0] == 0 and coarse[-1] == 255 and np.all(np.diff(coarse) <= 16)
     assert len(dense) > len(coarse) and np.all(np.diff(dense[dense < 32]) == 4)
     scene = Scene(fence(), CAMERA, sun_at(6.0, 0.0), 64, 36)
-    frame = epipolar.frame_for(scene.camera, scene.sun, 64, 36, float(scene.cascades.far_depths[-1]),
-                               epipolar.EpipolarSettings(slices=64, samples=64, steps=16))
+    frame = epipolar_grid.frame_for(scene.camera, scene.sun, 64, 36, float(scene.cascades.far_depths[-1]),
+                                    epipolar_grid.EpipolarSettings(slices=64, samples=64, steps=16))
     counts = {}
     for threshold in (0.0, 0.2, 0.01):
-        settings = epipolar.EpipolarSettings(slices=64, samples=64, steps=16, initial_sample_step=16,
+        settings = epipolar_grid.EpipolarSettings(slices=64, samples=64, steps=16, initial_sample_step=16,
                                              refinement_threshold=threshold)
         counts[threshold] = epipolar.build_tables(frame, scene.cascades, scene.camera, settings).marched.sum()
     assert counts[0.0] < counts[0.2] < counts[0.01], counts
@@ -173,9 +173,9 @@ def test_sampling_controls_change_the_tables():
 
 def test_bad_settings_are_refused_with_a_message():
     with pytest.raises(ValueError, match="slices"):
-        epipolar.EpipolarSettings(slices=0).checked()
+        epipolar_grid.EpipolarSettings(slices=0).checked()
     with pytest.raises(ValueError, match="refinement threshold"):
-        epipolar.EpipolarSettings(refinement_threshold=float("nan")).checked()
+        epipolar_grid.EpipolarSettings(refinement_threshold=float("nan")).checked()
 
 
 def test_each_epipolar_control_changes_the_picture(draft_luts):
@@ -233,13 +233,13 @@ def ground_distance(radius, camera, directions):
 @pytest.mark.parametrize("elevation, azimuth", [(5.0, 0.0), (25.0, 150.0)])
 def test_in_scattering_tables_match_eq8_per_pixel(draft_luts, elevation, azimuth):
     """lut_gen.passes.epipolar_air: a lit section's in-scattering I(b) - I(a) read from the coarse
-    tables against eq. (8) evaluated per pixel (lut_gen.passes.aerial, what brute force applies), for
+    tables against Yusov 2013 eq. (8) evaluated per pixel (lut_gen.passes.aerial, what brute force applies), for
     the single scattering (Rayleigh and Mie) and the higher orders, on random rays across the
     screen and random sections along them up to 20 km or the ground. Measured (draft tables):
     1.2-1.5% of the in-scattering to b, 2.3-2.8% of the sections' (weighted by their radiance)."""
     from lut_gen.passes import epipolar_air
     camera, sun = CAMERA, sun_at(elevation, azimuth)
-    frame = epipolar.frame_for(camera, sun, 160, 90, 3000.0, epipolar.EpipolarSettings())
+    frame = epipolar_grid.frame_for(camera, sun, 160, 90, 3000.0, epipolar_grid.EpipolarSettings())
     air = epipolar_air.air_frame(frame, Camera(camera.position, camera.rotation, camera.tan_half_fov, 30e3))
     tables = epipolar_air.build(draft_luts, air, camera.position)
     rng = np.random.default_rng(7)
@@ -262,15 +262,16 @@ def test_in_scattering_tables_match_eq8_per_pixel(draft_luts, elevation, azimuth
 
 @pytest.mark.parametrize("elevation, azimuth", [(6.0, 0.0), (25.0, 150.0), (40.0, 180.0)])
 def test_tables_of_the_screen_nodes_give_every_pixel_the_same_values(draft_luts, elevation, azimuth):
-    """epipolar.screen_nodes: building only the nodes the pixels read (the add-on's frame update)
+    """epipolar_grid.screen_nodes: building only the nodes the pixels read (the add-on's frame update)
     leaves every pixel's look-up of the lit-length and the in-scattering tables as the whole
     grid's build gives it."""
     from lut_gen.passes import epipolar_air
     width, height = 64, 36
     scene = Scene(fence(), CAMERA, sun_at(elevation, azimuth), width, height)
-    settings = epipolar.EpipolarSettings(slices=64, samples=64, steps=16)
-    frame = epipolar.frame_for(scene.camera, scene.sun, width, height, float(scene.cascades.far_depths[-1]), settings)
-    needed = epipolar.screen_nodes(frame, scene.camera, width, height)
+    settings = epipolar_grid.EpipolarSettings(slices=64, samples=64, steps=16)
+    frame = epipolar_grid.frame_for(scene.camera, scene.sun, width, height, float(scene.cascades.far_depths[-1]),
+                                    settings)
+    needed = epipolar_grid.screen_nodes(frame, scene.camera, width, height)
     whole = epipolar.build_tables(frame, scene.cascades, scene.camera, settings)
     part = epipolar.build_tables(frame, scene.cascades, scene.camera, settings, needed=needed)
     directions = scene.camera.view_directions(width, height)
@@ -279,7 +280,7 @@ def test_tables_of_the_screen_nodes_give_every_pixel_the_same_values(draft_luts,
                     epipolar.look_up(frame, part, directions, distances)[:2]):
         np.testing.assert_allclose(b, a, rtol=1e-6, atol=1e-6 * frame.t_max)
     air = epipolar_air.air_frame(frame, scene.camera)
-    air_needed = epipolar.screen_nodes(air, scene.camera, width, height)
+    air_needed = epipolar_grid.screen_nodes(air, scene.camera, width, height)
     whole_air = epipolar_air.build(draft_luts, air, scene.camera.position)
     part_air = epipolar_air.build(draft_luts, air, scene.camera.position, air_needed)
     for name in ("rayleigh", "mie", "higher"):

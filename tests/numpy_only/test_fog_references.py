@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from lut_gen.model.atmosphere import AtmosphereParams, mie_phase
-from lut_gen.verify import cloud_monte_carlo, fog, reference as ref
+from lut_gen.verify import cloud_monte_carlo, fog, reference as ref, reference_rays
 from lut_gen.verify.monte_carlo import radiance_by_order
 from rays import ray_by_elevation as ray
 
@@ -145,7 +145,7 @@ def test_monte_carlo_sees_the_sunlit_ground_through_the_fog(visibility, big_h):
     view = np.array([math.sqrt(1 - mu_v ** 2), 0.0, mu_v])
     sun = np.array([0.0, math.sqrt(1 - mu_s ** 2), mu_s])  # azimuth 90 from the view
     assert abs(view @ sun - nu) < 1e-12
-    d = ref._distance_to_ground(p, camera[2], mu_v)
+    d = reference_rays._distance_to_ground(p, camera[2], mu_v)
     ground = camera + d * view
     up = ground / np.linalg.norm(ground)
     sun_there = float(up @ sun)
@@ -166,15 +166,15 @@ def test_monte_carlo_scatters_fog_with_its_own_phase(visibility, height):
     aerosol's mie_g = 0.7: a fog drawn or weighted with the aerosol's g is 15% off). The energy
     balance below cannot see this (any phase function conserves energy)."""
     from lut_gen.model.atmosphere import rayleigh_phase
-    from lut_gen.verify import monte_carlo as mc
+    from lut_gen.verify import monte_carlo_events, monte_carlo_media
     p = fog.fog_params(visibility, 50.0, fog_g=0.6)
-    media = mc._Media.of(p)
+    media = monte_carlo_media._Media.of(p)
     n = 50_000
     points = np.repeat(np.array([[0.0, 0.0, p.earth_radius + height]]), n, axis=0)
     incoming = np.repeat(np.array([[0.6, 0.0, 0.8]]), n, axis=0)
-    directions, weight = mc._scatter_atmosphere(media, points, incoming, np.random.default_rng(2))
+    directions, weight = monte_carlo_events._scatter_atmosphere(media, points, incoming, np.random.default_rng(2))
     turn = np.einsum("ni,ni->n", directions, incoming)
-    beta_r, beta_m, beta_f = (b[0] for b in media.scattering(mc._norm(points[:1])))
+    beta_r, beta_m, beta_f = (b[0] for b in media.scattering(monte_carlo_media._norm(points[:1])))
     x, w = np.polynomial.legendre.leggauss(400)
 
     def mean_cos(phase):

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from lut_gen.verify import reference as ref
+from lut_gen.verify import reference as ref, reference_rays, reference_transmittance
 from lut_gen.model.atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
 from lut_gen.model.profiles import densities, ozone_density
 
@@ -180,9 +180,9 @@ def test_inline_ozone_tent_matches_atmosphere_profile():
     h = rng.uniform(0, TOP, 200)
     mu = rng.uniform(-1, 1, 200)
     r = R + h
-    got = ref._ozone_line(OZONE, r, mu, 16)
+    got = reference_transmittance._ozone_line(OZONE, r, mu, 16)
     for i in range(0, 200, 40):  # brute force through the atmosphere module's profile
-        length = ref._distance_to_top(OZONE, r[i], mu[i])
+        length = reference_rays._distance_to_top(OZONE, r[i], mu[i])
         s = np.linspace(0, length, 400_001)
         z = np.sqrt(r[i] ** 2 + s * s + 2 * r[i] * mu[i] * s) - R
         assert got[i] == pytest.approx(np.trapz(ozone_density(OZONE, z), s), rel=1e-6, abs=1e-3)
@@ -192,17 +192,17 @@ def test_panel_nodes_generalise_ray_nodes():
     rng = np.random.default_rng(9)
     r = R + rng.uniform(0, TOP, 50)
     mu = rng.uniform(-0.3, 1.0, 50)
-    length = ref._distance_to_top(PARAMS, r, mu)
-    s1, j1, du1 = ref._ray_nodes(r, mu, length, 40)
+    length = reference_rays._distance_to_top(PARAMS, r, mu)
+    s1, j1, du1 = reference_rays._ray_nodes(r, mu, length, 40)
     low = np.clip(-r * mu, 0, length)
-    s2, j2, du2 = ref._panel_nodes(np.stack([np.zeros_like(r), low, length], axis=-1), 40)
+    s2, j2, du2 = reference_rays._panel_nodes(np.stack([np.zeros_like(r), low, length], axis=-1), 40)
     np.testing.assert_allclose(s1, s2, rtol=1e-12, atol=1e-6)
     np.testing.assert_allclose(j1, j2, rtol=1e-12, atol=1e-6)
     assert np.all(np.diff(s1, axis=-1) >= 0)
     np.testing.assert_allclose(s1[:, 0], 0.0, atol=1e-9)
     np.testing.assert_allclose(s1[:, -1], length, rtol=1e-12)
     # The Jacobian integrates to the ray length.
-    np.testing.assert_allclose((j1 * ref._trapezoid_weights(40, du1)).sum(-1), length, rtol=1e-4)
+    np.testing.assert_allclose((j1 * reference_rays._trapezoid_weights(40, du1)).sum(-1), length, rtol=1e-4)
 
 
 # -- single scattering --------------------------------------------------------------------------

@@ -3,7 +3,7 @@ splits and footprints, and the visibility test the light-shaft march uses."""
 import numpy as np
 import pytest
 
-from lut_gen.passes import shadow_map as sm
+from lut_gen.passes import shadow_map as sm, shadow_raster
 
 
 def heightfield_triangles(n=10, size=100.0, seed=1):
@@ -24,7 +24,7 @@ def brute_force_max_depth(triangles_light, center, half, res):
     texel = 2 * np.asarray(half) / res
     x = center[0] - half[0] + (np.arange(res) + 0.5) * texel[0]
     y = center[1] - half[1] + (np.arange(res) + 0.5) * texel[1]
-    out = np.full((res, res), sm.EMPTY_DEPTH)
+    out = np.full((res, res), shadow_raster.EMPTY_DEPTH)
     for tri in triangles_light:
         (x0, y0, d0), (x1, y1, d1), (x2, y2, d2) = tri
         det = (y1 - y2) * (x0 - x2) + (x2 - x1) * (y0 - y2)
@@ -44,9 +44,9 @@ def test_rasterizer_matches_brute_force_ray_casting():
     frame = sm.light_frame(sun)
     tris = heightfield_triangles() @ frame.T
     center, half = np.array([3.0, -2.0]), np.array([45.0, 40.0])
-    fast = sm.rasterize_max_depth(tris, center, half, 64)
+    fast = shadow_raster.rasterize_max_depth(tris, center, half, 64)
     slow = brute_force_max_depth(tris, center, half, 64)
-    covered = slow > sm.EMPTY_DEPTH
+    covered = slow > shadow_raster.EMPTY_DEPTH
     assert covered.mean() > 0.5 and (~covered).any()       # the terrain fills part of the map
     close = np.isclose(fast, slow, atol=1e-3 * 15)
     assert close.mean() > 0.995, f"{(~close).sum()} texels differ"
@@ -54,13 +54,14 @@ def test_rasterizer_matches_brute_force_ray_casting():
 
 def test_rasterizer_handles_big_and_tiny_triangles_and_empty_input():
     big = np.array([[(-1e4, -1e4, 5.0), (1e4, -1e4, 5.0), (0.0, 1e4, 5.0)]])
-    depth = sm.rasterize_max_depth(big, (0.0, 0.0), (10.0, 10.0), 32)
+    depth = shadow_raster.rasterize_max_depth(big, (0.0, 0.0), (10.0, 10.0), 32)
     assert np.all(depth == 5.0)
     tiny = np.array([[(0.01, 0.01, 1.0), (0.02, 0.01, 1.0), (0.01, 0.02, 1.0)]])
-    assert np.all(sm.rasterize_max_depth(tiny, (0.0, 0.0), (10.0, 10.0), 32) == sm.EMPTY_DEPTH)
-    assert np.all(sm.rasterize_max_depth(np.zeros((0, 3, 3)), (0, 0), (1, 1), 8) == sm.EMPTY_DEPTH)
+    assert np.all(shadow_raster.rasterize_max_depth(tiny, (0.0, 0.0), (10.0, 10.0), 32) == shadow_raster.EMPTY_DEPTH)
+    assert np.all(shadow_raster.rasterize_max_depth(np.zeros((0, 3, 3)), (0, 0), (1, 1), 8)
+                  == shadow_raster.EMPTY_DEPTH)
     with pytest.raises(ValueError, match="at least 1"):
-        sm.rasterize_max_depth(big, (0, 0), (1, 1), 0)
+        shadow_raster.rasterize_max_depth(big, (0, 0), (1, 1), 0)
 
 
 def test_cascade_splits_blend_uniform_and_logarithmic():
@@ -160,7 +161,7 @@ def test_pack_atlas_into_last_frames_buffer_equals_a_fresh_pack():
     assert reused is buffer
     fresh = sm.pack_atlas(second)
     np.testing.assert_array_equal(reused, fresh)
-    assert np.all(fresh[:, 8:, 1:3] == sm.EMPTY_DEPTH) and np.all(fresh[..., 3] == 1.0)
+    assert np.all(fresh[:, 8:, 1:3] == shadow_raster.EMPTY_DEPTH) and np.all(fresh[..., 3] == 1.0)
     np.testing.assert_array_equal(fresh[:, 8:, 0], second.depths[3])
     np.testing.assert_array_equal(fresh[:, :8, 2], second.depths[2])
     assert sm.pack_atlas(cascades(4, res=16), out=buffer) is not buffer     # another size: a new array
@@ -175,7 +176,7 @@ def test_cascades_rasterised_on_threads_equal_the_serial_ones():
     tris = heightfield_triangles(n=40, size=200.0, seed=4)
     serial = sm.render_cascades(tris, camera, sun, 128, 4, 0.7, 1.0, 300.0)
     threaded = sm.render_cascades(tris, camera, sun, 128, 4, 0.7, 1.0, 300.0, threads=3)
-    assert (serial.depths > sm.EMPTY_DEPTH).mean() > 0.3
+    assert (serial.depths > shadow_raster.EMPTY_DEPTH).mean() > 0.3
     np.testing.assert_array_equal(threaded.depths, serial.depths)
 
 

@@ -11,7 +11,7 @@ from concurrent.futures import ThreadPoolExecutor
 import bpy
 import numpy as np
 
-from ....lut_gen.passes import analytic_shafts, epipolar, epipolar_air, min_max, render_detail
+from ....lut_gen.passes import analytic_shafts, epipolar, epipolar_air, epipolar_grid, min_max, render_detail
 from ... import nodes
 from ..tables import luts
 from .. import names
@@ -137,16 +137,16 @@ def forget():
 
 def grids(state, far: float, luts_object, clouds=None):
     """((lit-length grid, its nodes the screen reads), (in-scattering grid, its nodes)) of the
-    frame (lut_gen.passes.epipolar.EpipolarFrame, screen_nodes): ``far`` is the shadow cascades'
+    frame (lut_gen.passes.epipolar_grid.EpipolarFrame, screen_nodes): ``far`` is the shadow cascades'
     last split (shadow_maps.Casters.far). Only the nodes the screen reads are built."""
     camera = state.camera
     width, height = state.render_size
-    reach = epipolar.cloud_reach(clouds, camera, width, height, luts_object.params.earth_radius)
-    frame = epipolar.frame_for(camera, state.sun_direction, width, height, far, epipolar.settings_from(state.settings),
-                               reach)
+    reach = epipolar_grid.cloud_reach(clouds, camera, width, height, luts_object.params.earth_radius)
+    frame = epipolar_grid.frame_for(camera, state.sun_direction, width, height, far,
+                                    epipolar_grid.settings_from(state.settings), reach)
     air = epipolar_air.air_frame(frame, camera)
-    return ((frame, epipolar.screen_nodes(frame, camera, width, height)),
-            (air, epipolar.screen_nodes(air, camera, width, height)))
+    return ((frame, epipolar_grid.screen_nodes(frame, camera, width, height)),
+            (air, epipolar_grid.screen_nodes(air, camera, width, height)))
 
 
 @contextlib.contextmanager
@@ -166,7 +166,7 @@ def building(state, far: float, luts_object, clouds=None):
     (frame, needed), air_grid = grids(state, far, luts_object, clouds)
     settings = state.settings
     maps = None
-    if epipolar.settings_from(settings).use_min_max:
+    if epipolar_grid.settings_from(settings).use_min_max:
         # Filled by the rasterising threads, each cascade as soon as its map is done (built
         # after the rasterising, they held up the lit-length tables: 0.016 s of the forest's frame).
         maps = min_max.allocate(settings.num_cascades, int(settings.shadow_map_resolution), settings.smooth_shadows)
@@ -200,9 +200,10 @@ def _finish(state, far, frame, needed, air_grid, start_air_tables, luts_object, 
     air_tables, air = start_air_tables(), air_grid[0]
     settings, camera = state.settings, state.camera
     width, height = state.render_size
-    tables = epipolar.build_tables(frame, cascades, camera, epipolar.settings_from(settings), settings.smooth_shadows,
-                                   settings.best_cascade_search, settings.first_cascade_to_ray_march,
-                                   luts_object, settings.single_scattering_mode == "INTEGRATION", clouds,
+    tables = epipolar.build_tables(frame, cascades, camera, epipolar_grid.settings_from(settings),
+                                   settings.smooth_shadows, settings.best_cascade_search,
+                                   settings.first_cascade_to_ray_march, luts_object,
+                                   settings.single_scattering_mode == "INTEGRATION", clouds,
                                    needed=needed, maps=maps if _maps_fit(maps, cascades) else None)
     _write_lit_tables(frame, tables, settings, camera, width, height)
     for name, pixels in nodes.epipolar.pack_air(air_tables()).items():

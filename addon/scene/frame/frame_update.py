@@ -18,7 +18,7 @@ import numpy as np
 
 from ....lut_gen.clouds import shafts as cloud_shafts
 from ....lut_gen.clouds import veil as cloud_veil
-from ....lut_gen.passes import epipolar, frame_values, scattering_pass
+from ....lut_gen.passes import epipolar_grid, frame_values, scattering_pass
 from ....lut_gen.model import analytic
 from ....lut_gen.tables.process_tuning import blas_on_one_thread
 from ...settings import Sanitized, analytic_params
@@ -80,7 +80,7 @@ def _frame_key(scene, state: frame_state.FrameState):
     return (scene.frame_current, state.key(),
             settings.shadow_map_resolution, settings.num_cascades, settings.cascade_partitioning_factor,
             settings.enable_light_shafts, settings.enable_light_scattering,
-            epipolar_tables.technique(settings), epipolar.settings_from(settings), settings.single_scattering_mode,
+            epipolar_tables.technique(settings), epipolar_grid.settings_from(settings), settings.single_scattering_mode,
             settings.smooth_shadows, settings.best_cascade_search, settings.first_cascade_to_ray_march,
             settings.show_sampling, scene.get(names.WIRED_KEY))
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from ....lut_gen.passes import scattering_pass, shadow_map
+from ....lut_gen.passes import scattering_pass, shadow_map, shadow_raster
 from ....lut_gen.tables import process_tuning
 from ..tables import luts
 from . import frame_state
@@ -176,7 +176,7 @@ def ensure_images(resolution: int, count: int):
     blocks = -(-count // shadow_map.CASCADES_PER_BLOCK)
     if (atlas is None or params is None or tuple(atlas.size) != (blocks * resolution, resolution)
             or tuple(params.size) != (count + 1, len(shadow_map.PARAM_ROWS))):
-        empty = np.broadcast_to(np.float32(shadow_map.EMPTY_DEPTH), (count, resolution, resolution))   # no copy
+        empty = np.broadcast_to(np.float32(shadow_raster.EMPTY_DEPTH), (count, resolution, resolution))   # no copy
         write_images(shadow_map.ShadowCascades(np.eye(3), np.zeros((count, 2)), np.ones((count, 2)),
                                                np.ones(count), empty))
     return bpy.data.images[names.SHADOW_MAP_IMAGE], bpy.data.images[names.SHADOW_CASCADES_IMAGE]
