@@ -1,4 +1,4 @@
-"""Light shafts without blocks (issue 25): a long horizontal wall against a low sun, whose shadow
+"""Light shafts without blocks: a long horizontal wall against a low sun, whose shadow
 in the air has a closed form. A view ray over the wall leaves the wall's shadow where the sun
 line from its point clears the wall's top, a distance linear in the ray's direction; the sky
 above the wall darkens by the in-scattering of the air before that point, smoothly with
@@ -81,4 +81,4 @@ def test_the_sky_over_a_wall_darkens_smoothly_as_its_closed_form(draft_luts, tec
     excess = (drawn - exact) / sky
     steps = np.concatenate([np.abs(np.diff(excess, axis=0))[over_wall[1:] & over_wall[:-1]],
                             np.abs(np.diff(excess, axis=1))[over_wall[:, 1:] & over_wall[:, :-1]]])
-    assert steps.max() < 1e-3, steps.max()          # a tenth of the issue's 1% of the sky
+    assert steps.max() < 1e-3, steps.max()          # a tenth of the bar's 1% of the sky
