@@ -7,14 +7,13 @@ baseline run of another revision, and their ratios.
     .venv/bin/python bench/bench_bake.py --against none     # this tree only
     .venv/bin/python bench/bench_bake.py --fog --against 591d75c   # morning fog and clear sky, default tables
 
-Each bake is the first of a fresh process, as a first Set Up Scene, a farm worker or a batch
-render meets it (a second bake in the same process finds glibc's heap grown and ran up to 20%
-faster before lut_gen/tables/process_tuning.py); the two sides alternate, --repeats times each,
-and the medians are compared. The goals on this 2-core machine, set when the background bake
-and its draft preview came in: default <= 15 s and <= 0.6x of the baker before its speed-up
-(run --against 041da50), draft <= 2 s. Against the
-three-wavelength baker (the default baseline) the ratios are the price of 12 + 7 wavelengths, the
-separate Mie table and the ground.
+Each bake is the first of a fresh process, as a first Set Up Scene, a farm worker or a batch render
+meets it (a second bake in the same process finds glibc's heap grown and ran up to 20% faster before
+lut_gen/tables/process_tuning.py); the two sides alternate, --repeats times each, and the medians
+are compared. The goals on this 2-core machine, set when the background bake and its draft preview
+came in: default <= 15 s and <= 0.6x of the baker before its speed-up (run --against 041da50),
+draft <= 2 s. Against the three-wavelength baker (the default baseline) the ratios are the price of 12 + 7
+wavelengths, the separate Mie table and the ground.
 
 --fog times the morning-fog preset (lut_gen.model.air_presets.FOG_PRESETS: 300 m visibility, 50 m
 deep, orders until converged) and the clear sky, both at the default resolution. The goals, set

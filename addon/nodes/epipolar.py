@@ -1,8 +1,9 @@
 """The epipolar technique's part of "OLS Light Shafts": instead of marching each pixel's ray
-through the shadow maps, read the lit length, the first lit distance and (INTEGRATION) the
-shadowed single scattering at the pixel's own depth from the tables lut_gen.passes.epipolar builds
-before each frame, then apply the scattering modes from the in-scattering tables of
-lut_gen.passes.epipolar_air (no per-pixel eq. 8). Twin: lut_gen.passes.epipolar_air.light_shaft_difference.
+through the shadow maps, read the lit length, the first lit distance and (INTEGRATION) the shadowed
+single scattering at the pixel's own depth from the tables lut_gen.passes.epipolar builds before
+each frame, then apply the scattering modes from the in-scattering tables of
+lut_gen.passes.epipolar_air (no per-pixel Yusov 2013 eq. 8). Twin:
+lut_gen.passes.epipolar_air.light_shaft_difference.
 
 Table image "OLS Epipolar Lit" (RGBA: lit length, first lit): row i * K + k holds slice node
 i at distance node k, column j sample node j; "OLS Epipolar Integral" (RGB) the same for the

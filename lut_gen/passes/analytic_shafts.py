@@ -7,7 +7,7 @@ The shadows are found exactly as for the tables: the same march of shadow tests
 tables (lut_gen.passes.epipolar). Only the air's light differs, and there the model needs no
 table: along a pixel's ray the aerial perspective holds air and haze at constant densities (those
 of the ray's middle height, analytic.segment_densities), so the in-scattering gathered from the
-camera out to distance t is Eq. 4's closed form
+camera out to distance t is Hoffman & Preetham Eq. 4's closed form
 
     I(t) = E_sun beta_sc(theta) (1 - exp(-beta t)) / beta,
 
@@ -51,8 +51,8 @@ INTEGRAL_CHUNK = 2048
 
 def reach(beta, length):
     """(1 - exp(-beta s)) / beta per channel (``beta`` (..., 3), ``length`` (...)): the
-    distance a segment of length s weighs in Eq. 4, s itself where beta is 0 (-expm1 keeps a
-    small beta s accurate)."""
+    distance a segment of length s weighs in Hoffman & Preetham Eq. 4, s itself where beta is 0
+    (-expm1 keeps a small beta s accurate)."""
     beta = np.asarray(beta, dtype=np.float64)
     length = np.asarray(length, dtype=np.float64)[..., None]
     safe = np.maximum(beta, analytic.MIN_EXTINCTION)

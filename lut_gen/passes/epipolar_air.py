@@ -1,7 +1,7 @@
 """The air's in-scattering along the epipolar table rays: what lets the epipolar technique
-apply the sample's scattering modes with texture fetches instead of per-pixel eq. (8).
+apply the sample's scattering modes with texture fetches instead of per-pixel Yusov 2013 eq. (8).
 
-Eq. (8) for a lit section a -> b of a view ray seen from the camera C is
+Yusov 2013 eq. (8) for a lit section a -> b of a view ray seen from the camera C is
     T(C->a) S(a) - T(C->b) S(b) = I(b) - I(a),   I(t) = S(C) - T(C->X_t) S(X_t),
 the in-scattering gathered from the camera out to distance t. So each mode needs I at three
 distances of the pixel's ray (the first lit distance F, F + lit length, the ray's end), and
@@ -14,8 +14,8 @@ the shadowed minus the unshadowed in-scattering the pass adds is
 (UNOCCLUDED's higher orders cancel against the unshadowed pass's.) With no occluders
 (F = 0, L = end) the difference is exactly 0, and in full shadow only the multiple
 scattering's share stays, as for brute force. The aerial perspective's own in-scattering
-I_s(end) + I_h(end) comes from the same tables, so the pass evaluates no eq. (8) per pixel at
-all (the epipolar technique of Intel 2012 interpolates all of its in-scattering too).
+I_s(end) + I_h(end) comes from the same tables, so the pass evaluates no Yusov 2013 eq. (8) per
+pixel at all (the epipolar technique of Intel 2012 interpolates all of its in-scattering too).
 
 Before each frame numpy evaluates I at the nodes of a coarser grid of the same (phi, theta)
 parametrisation as the lit-length tables (lut_gen.passes.epipolar) and a geometric distance grid out
@@ -118,7 +118,8 @@ def build(luts: Luts, frame: EpipolarFrame, camera_position, needed=None) -> Air
         for radiance, part in zip(radiances, found):
             radiance[rays] = part
     for radiance in radiances:
-        radiance[:, :, 0] = 0.0         # I(0) = 0 (eq. 8's clamp and float error leave a trace)
+        # I(0) = 0: Yusov 2013 eq. 8's clamp and float error leave a trace there.
+        radiance[:, :, 0] = 0.0
     return AirTables(*radiances)
 
 

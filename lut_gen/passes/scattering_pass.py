@@ -10,9 +10,10 @@ shadow cascade (sky):
     geometry: L_surface T(C->P) + S(C->E) x sun x scale
     sky:      L_sky + (S(C->E) - S_unshadowed(C->E)) x sun x scale
 where S is the light-shaft in-scattering (lut_gen.passes.aerial.light_shafts, the sample's modes) and
-S_unshadowed is eq. (8) over the multiple-scattering table, which the rendered sky already holds.
-Without light shafts S = S_unshadowed (aerial perspective only). With the epipolar technique
-both S and S_unshadowed come from its tables (lut_gen.passes.epipolar_air), not from eq. (8) per pixel.
+S_unshadowed is Yusov 2013 eq. (8) over the multiple-scattering table, which the rendered sky
+already holds. Without light shafts S = S_unshadowed (aerial perspective only). With the epipolar
+technique both S and S_unshadowed come from its tables (lut_gen.passes.epipolar_air), not from
+Yusov 2013 eq. (8) per pixel.
 """
 from __future__ import annotations
 
@@ -184,7 +185,8 @@ def epipolar_pass(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades
 def light_shafts(luts: Luts, camera: Camera, end, sun, cascades: ShadowCascades, settings: PassSettings,
                  unshadowed, clouds=None):
     """Shadowed minus ``unshadowed`` in-scattering per unit sun of every pixel by brute-force
-    ray marching (eq. 8 per pixel); ``clouds`` shadow the air too (lut_gen.clouds.shafts)."""
+    ray marching (Yusov 2013 eq. 8 per pixel); ``clouds`` shadow the air too
+    (lut_gen.clouds.shafts)."""
     def is_lit(points):
         return visibility(cascades, points, camera, settings.smooth_shadows,
                           settings.best_cascade_search, settings.first_cascade_to_ray_march)

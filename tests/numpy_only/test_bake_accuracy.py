@@ -262,7 +262,7 @@ def test_transmittance_to_top_matches_reference(default_luts):
 
 
 def test_ambient_skylight_is_the_hemisphere_integral(default_luts):
-    """Eq. (3) checked with an independent quadrature (Fibonacci hemisphere)."""
+    """Yusov 2013 eq. (3) checked with an independent quadrature (Fibonacci hemisphere)."""
     n = 20_000
     k = np.arange(n) + 0.5
     mu = k / n

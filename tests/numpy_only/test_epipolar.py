@@ -233,10 +233,11 @@ def ground_distance(radius, camera, directions):
 @pytest.mark.parametrize("elevation, azimuth", [(5.0, 0.0), (25.0, 150.0)])
 def test_in_scattering_tables_match_eq8_per_pixel(draft_luts, elevation, azimuth):
     """lut_gen.passes.epipolar_air: a lit section's in-scattering I(b) - I(a) read from the coarse
-    tables against eq. (8) evaluated per pixel (lut_gen.passes.aerial, what brute force applies), for
-    the single scattering (Rayleigh and Mie) and the higher orders, on random rays across the
-    screen and random sections along them up to 20 km or the ground. Measured (draft tables):
-    1.2-1.5% of the in-scattering to b, 2.3-2.8% of the sections' (weighted by their radiance)."""
+    tables against Yusov 2013 eq. (8) evaluated per pixel (lut_gen.passes.aerial, what brute force
+    applies), for the single scattering (Rayleigh and Mie) and the higher orders, on random rays
+    across the screen and random sections along them up to 20 km or the ground. Measured (draft
+    tables): 1.2-1.5% of the in-scattering to b, 2.3-2.8% of the sections' (weighted by their
+    radiance)."""
     from lut_gen.passes import epipolar_air
     camera, sun = CAMERA, sun_at(elevation, azimuth)
     frame = epipolar.frame_for(camera, sun, 160, 90, 3000.0, epipolar.EpipolarSettings())

@@ -4,10 +4,10 @@ line from its point clears the wall's top, a distance linear in the ray's direct
 above the wall darkens by the in-scattering of the air before that point, smoothly with
 elevation and uniformly along the wall.
 
-Each technique is held to that form in its own in-scattering (brute force: eq. 8 per pixel;
-epipolar: its in-scattering tables), fed the exact lit length and first lit distance, so what
-is measured is where the march puts the shadow's edge: the step-sized bands the march drew
-before its edges were refined (up to 5% of the darkening between neighbouring rows) are gone.
+Each technique is held to that form in its own in-scattering (brute force: Yusov 2013 eq. 8 per
+pixel; epipolar: its in-scattering tables), fed the exact lit length and first lit distance, so what
+is measured is where the march puts the shadow's edge: the step-sized bands the march drew before
+its edges were refined (up to 5% of the darkening between neighbouring rows) are gone.
 """
 import numpy as np
 import pytest
