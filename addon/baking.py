@@ -93,7 +93,8 @@ def preview_name(scene) -> str:
     return "analytic" if wired_bake.is_analytic(scene) else "draft"
 
 
-# The analytic sky is black once the sun is below this (Eq. 5 has no twilight, docs/analytic.md).
+# The analytic sky is black once the sun is below this (Hoffman & Preetham Eq. 5 has no twilight,
+# docs/analytic.md).
 STAND_IN_MIN_SUN_ELEVATION_DEG = 2.0
 
 

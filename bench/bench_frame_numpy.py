@@ -1,12 +1,12 @@
 """The per-frame numpy work of the light-shaft pass, stage by stage, against a baseline
-revision side by side (issue 25: the frame update <= 0.5 s at 1024-texel shadow maps).
+revision side by side (the goal: the frame update <= 0.5 s at 1024-texel shadow maps).
 
 Each scene of bench/shaft_scenes.py is wired once; then the frame update (what render_pre
 runs before each frame is composited, epipolar sampling on) is called --frames times for this
 tree and for the baseline revision's code alternately, the per-frame cache cleared before each
 so every call pays as a new animation frame would. The baseline is the extension at
 ``--against`` (a git worktree under a temporary folder), imported as a second package beside
-this one in the same Blender session: the same scene, depsgraph and tables feed both. Printed:
+this one in the same Blender process: the same scene, depsgraph and tables feed both. Printed:
 the median seconds per stage of each, and new / baseline.
 
     .venv/bin/python bench/bench_frame_numpy.py [--against HEAD] [--scenes sample,colonnade,forest]

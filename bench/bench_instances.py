@@ -4,7 +4,7 @@ gathering (addon/scene/frame/shadow_maps.scene_triangles) against a baseline rev
 side in one run, then the rasterisation of what it gathered into the cascades for a camera 2 m
 up at the forest's edge.
 
-Goal (the light-shaft issue): the per-frame numpy work at most 0.5 s at 1024-texel maps.
+Goal (as for the light-shaft pass): the per-frame numpy work at most 0.5 s at 1024-texel maps.
 
     .venv/bin/python bench/bench_instances.py [--baseline 8a1737a] [--trees 10000] [--repeat 3]
         [--resolution 1024] [--cascades 6]

@@ -3,7 +3,7 @@ control fuzz and by every F12 or animation frame with Persistent Data): the terr
 baseline: what Set Up Scene did before) against not sampled, side by side in one run.
 
 Each variant runs in its own process (Cycles keeps a material's emission sampling from the
-first render of a persistent session), wires the sample at 64 x 36 with 1 Cycles sample, and
+first render while Persistent Data keeps the scene), wires the sample at 64 x 36 with 1 Cycles sample, and
 times renders after nothing changed, after the sun moved and after a tone-mapping setting
 changed (median of --repeat each).
 

@@ -1,5 +1,5 @@
 """The whole light-shaft pass, epipolar sampling against brute force, on several scenes and
-sizes (issue 25): what the pass adds to a render, shadow maps and tables included.
+sizes: what the pass adds to a render, shadow maps and tables included.
 
 For each scene (bench/shaft_scenes.py: the sample, a colonnade, a forest of 10 000 instanced
 trees) and size, the frame is rendered once (1 Cycles sample) and the compositor then fed from

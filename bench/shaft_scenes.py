@@ -3,7 +3,7 @@ forest of 10 000 instanced trees, each wired to draft tables with light shafts o
 
 - "sample": the sample terrain, its camera, the sun at 15 deg.
 - "colonnade": 14 pillars under a lintel and a block beside them on a 4 km plane, the camera
-  2 m up facing a sun 4 deg high through the pillars (the case that found issue 25).
+  2 m up facing a sun 4 deg high through the pillars (many thin shadow edges against a low sun).
 - "forest": 10 000 cone trees put by a geometry-nodes Instance on Points on a 1.2 km grid, the
   camera 5 m up at the forest's edge facing a sun 10 deg high through the trunks.
 

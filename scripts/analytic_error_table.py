@@ -44,10 +44,10 @@ def sky_rows(luts, media):
 
 
 def single_scattering_march(luts, start, end, sun, steps=4000):
-    """Single scattering of the tables' own media (exponential profiles, ozone, the sun's
-    extinction from the optical-depth table) along a segment, by the midpoint rule: the
-    reference for the aerial rows' last column (eq. (8)'s difference of two look-ups along a
-    horizontal ray carries the tables' horizon error, larger than the single-scattering part)."""
+    """Single scattering of the tables' own media (exponential profiles, ozone, the sun's extinction
+    from the optical-depth table) along a segment, by the midpoint rule: the reference for the
+    aerial rows' last column (Yusov 2013 eq. (8)'s difference of two look-ups along a horizontal ray
+    carries the tables' horizon error, larger than the single-scattering part)."""
     params = luts.params
     length = float(np.linalg.norm(end - start))
     t = (np.arange(steps) + 0.5) / steps * length

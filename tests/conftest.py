@@ -21,7 +21,7 @@ from extension import EXTENSION_PACKAGE, import_extension  # noqa: E402,F401 (be
 
 @pytest.fixture(scope="session")
 def default_luts():
-    """The default-resolution bake (the sample's 32 x 128 x 64 x 16 tables), once per session."""
+    """The default-resolution bake (the sample's 32 x 128 x 64 x 16 tables), once per test run."""
     import lut_gen
     return lut_gen.bake(resolution="default")
 

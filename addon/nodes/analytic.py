@@ -84,7 +84,7 @@ def exp_neg(g, x):
 
 
 def air_mass(g, cos_zenith):
-    """analytic.air_mass: Eq. 5 over l_zenith, clamped at the horizon."""
+    """analytic.air_mass: Hoffman & Preetham Eq. 5 over l_zenith, clamped at the horizon."""
     c = g.clamp(cos_zenith, 0.0, 1.0)
     theta = g.mul(g.math("ARCCOSINE", c), 180.0 / math.pi)
     return g.div(1.0, g.add(c, g.mul(0.15, g.math("POWER", g.sub(93.885, theta), -1.253))))
@@ -135,7 +135,8 @@ def phases(g, m, cos_sun_view):
 
 def transmittance_and_reach(g, beta, length):
     """(exp(-beta s), (1 - exp(-beta s)) / beta) of one channel for a segment of ``length`` s:
-    the second is the distance the segment weighs in Eq. 4 (lut_gen.passes.analytic_shafts.reach)."""
+    the second is the distance the segment weighs in Hoffman & Preetham Eq. 4
+    (lut_gen.passes.analytic_shafts.reach)."""
     depth = g.mul(length, beta)
     t = exp_neg(g, depth)
     # (1 - exp(-x)) / x, its series below SERIES_BELOW; times the length gives the reach
@@ -212,9 +213,9 @@ def build_analytic_sky_group(params):
 
 
 def build_analytic_aerial_group(params):
-    """"OLS Aerial Perspective" under the analytic model: Eq. 1 from the camera to each pixel's
-    point through air and haze at the densities of the segment's middle height, E_sun at the
-    camera's height. Sky pixels pass through, as in the precomputed group."""
+    """"OLS Aerial Perspective" under the analytic model: Hoffman & Preetham Eq. 1 from the
+    camera to each pixel's point through air and haze at the densities of the segment's middle
+    height, E_sun at the camera's height. Sky pixels pass through, as in the precomputed group."""
     build_media_group(params, compositor=True)
     tree = new_group(names.AERIAL_GROUP, "CompositorNodeTree")
     g, gin, gout = group_io(tree, AERIAL_INPUTS, [("Image", "NodeSocketColor", None),
@@ -256,8 +257,9 @@ def ambient_irradiance(g, m, cos_sun):
 
 def build_analytic_terrain_group(params):
     """"OLS Terrain" under the analytic model: the precomputed group's shading (nodes/terrain.py)
-    with Eq. 5's sun extinction at the point's height (over the origin's, which the lamp's colour
-    carries) and the analytic sky's own ambient skylight. +Z is up and z the height."""
+    with Hoffman & Preetham Eq. 5's sun extinction at the point's height (over the origin's, which
+    the lamp's colour carries) and the analytic sky's own ambient skylight. +Z is up and z the
+    height."""
     build_media_group(params)
     tree = new_group(names.TERRAIN_GROUP)
     g, gin, gout = group_io(tree, TERRAIN_INPUTS, [("Shader", "NodeSocketShader", None)])

@@ -1,6 +1,6 @@
-"""Eq. (8) of Yusov 2013 in a compositor tree: light scattered toward the camera from a ray
-section start -> end, T(C->start) L(start) - T(C->end) L(end), both look-ups on the side of the
-horizon seam the first one chose (Listing 2). Twin: lut_gen.passes.aerial.section_inscattering."""
+"""Eq. (8) of Yusov 2013 in a compositor tree: light scattered toward the camera from a ray section
+start -> end, T(C->start) L(start) - T(C->end) L(end), both look-ups on the side of the horizon seam
+the first one chose (Yusov 2013 Listing 2). Twin: lut_gen.passes.aerial.section_inscattering."""
 from __future__ import annotations
 
 import bpy
@@ -37,7 +37,8 @@ def section_group_name(table: str) -> str:
 
 
 def build_section_group(table, params):
-    """"OLS Section Scattering (<table>)": eq. (8) over a ray section as a shared group."""
+    """"OLS Section Scattering (<table>)": Yusov 2013 eq. (8) over a ray section as a shared
+    group."""
     tree = new_group(section_group_name(table), "CompositorNodeTree")
     inputs = ([(name, "NodeSocketVector", (0.0, 0.0, 0.0)) for name in ("Start", "End", "Direction", "Sun Direction")]
               + [(name, "NodeSocketVector", (1.0, 1.0, 1.0)) for name in ("Start Transmittance", "End Transmittance")])
@@ -49,7 +50,7 @@ def build_section_group(table, params):
 
 
 def section_node(g, table, start, end, direction, sun, start_transmittance, end_transmittance):
-    """Eq. (8) start -> end through an "OLS Section Scattering (<table>)" node."""
+    """Yusov 2013 eq. (8) start -> end through an "OLS Section Scattering (<table>)" node."""
     return g.group(bpy.data.node_groups[section_group_name(table)], start=start, end=end, direction=direction,
                    sun_direction=sun, start_transmittance=start_transmittance,
                    end_transmittance=end_transmittance)["Radiance"]
@@ -57,9 +58,10 @@ def section_node(g, table, start, end, direction, sun, start_transmittance, end_
 
 def section_inscattering(g, table, start, end, direction, sun, start_transmittance, end_transmittance, params):
     """max(T_start L(start) - T_end L(end), 0) for world points ``start`` and ``end``; within
-    HORIZON_BLEND of the start's horizon (narrowed for long sections), the blend of eq. (8) along
-    the rays just below and just above the horizon (Bruneton's fix for the step the seam draws;
-    not in fog: uses_horizon_blend; twin: lut_gen.passes.aerial.section_inscattering)."""
+    HORIZON_BLEND of the start's horizon (narrowed for long sections), the blend of
+    Yusov 2013 eq. (8) along the rays just below and just above the horizon (Bruneton's fix for the
+    step the seam draws; not in fog: uses_horizon_blend; twin:
+    lut_gen.passes.aerial.section_inscattering)."""
     start_frame = point_frame(g, start, params)
     height, up = start_frame
 

@@ -1,8 +1,8 @@
 """The shared 4D look-up group: Listing 1 of Yusov 2013 over our 2D atlas (see lut_gen/tables/atlas.py).
 
-Inputs are world quantities; the group applies eqs. (4)-(7) (Listing 2's horizon split for the
-view zenith), filters the view-zenith axis in hardware inside a tile, blends the neighbouring
-sun-view nodes linearly and the neighbouring sun-zenith and height nodes geometrically
+Inputs are world quantities; the group applies Yusov 2013 eqs. (4)-(7) (Listing 2's horizon split
+for the view zenith), filters the view-zenith axis in hardware inside a tile, blends the
+neighbouring sun-view nodes linearly and the neighbouring sun-zenith and height nodes geometrically
 (lut_gen.tables.lookup.GEOMETRIC_AXES) by hand, then restores the Rayleigh
 phase the tables are divided by, adds the single Mie table times the exact Mie phase, and
 multiplies ground-hitting rays by their ground-ray scale. Its numpy twin is
@@ -19,12 +19,12 @@ from .builder import group_io, new_group
 from .optical import distance_to_ground
 from ..scene import names
 
-TAN_PHI = math.tan(1.26 * 1.1)       # eq. (6), Bruneton's form
+TAN_PHI = math.tan(1.26 * 1.1)       # Yusov 2013 eq. (6), Bruneton's form
 
 
 def height_coordinate(g, height, dims, params):
-    """x_h and the clamped height: eq. (4), or with fog the logarithmic axis that resolves the
-    layer (lut_gen.tables.parameterization.height_to_x)."""
+    """x_h and the clamped height: Yusov 2013 eq. (4), or with fog the logarithmic axis that
+    resolves the layer (lut_gen.tables.parameterization.height_to_x)."""
     h = g.clamp(height, 0.0, params.atmosphere_height)
     knee = par.fog_knee(params)
     if knee is None:
@@ -36,8 +36,9 @@ def height_coordinate(g, height, dims, params):
 
 
 def view_zenith_coordinate(g, cos_view, h, n_a, earth_radius, forced_flag=None):
-    """x_a of eq. (5) with Listing 2's halves and the horizon flag used. The flag is decided
-    per look-up unless ``forced_flag`` = (force 0/1, above 0/1) sockets pass an earlier one."""
+    """x_a of Yusov 2013 eq. (5) with Listing 2's halves and the horizon flag used. The flag is
+    decided per look-up unless ``forced_flag`` = (force 0/1, above 0/1) sockets pass an earlier
+    one."""
     half = n_a // 2
     # c_h = -sqrt(h (2R + h)) / (R + h)
     c_h = g.math("MULTIPLY", -1.0, g.div(g.math("SQRT", g.mul(h, g.add(h, 2 * earth_radius))),
@@ -54,14 +55,14 @@ def view_zenith_coordinate(g, cos_view, h, n_a, earth_radius, forced_flag=None):
 
 
 def sun_zenith_coordinate(g, cos_sun, n_s):
-    """x_s of eq. (6)."""
+    """x_s of Yusov 2013 eq. (6)."""
     c = g.math("MAXIMUM", cos_sun, par.SUN_ZENITH_MIN_COS)
     u = g.mul(g.add(g.div(g.math("ARCTANGENT", g.mul(c, TAN_PHI)), 1.1), 1.0 - 0.26), 0.5)
     return g.mul(g.clamp(u, 0.0, 1.0), n_s - 1)
 
 
 def sun_view_coordinate(g, cos_sun_view, n_t):
-    """x_t of eq. (7)."""
+    """x_t of Yusov 2013 eq. (7)."""
     gamma = g.div(g.math("ARCCOSINE", g.clamp(cos_sun_view, -1.0, 1.0)), math.pi)
     d = g.mul(g.sub(gamma, 0.5), 2.0)
     shaped = g.mul(g.math("SIGN", d), g.math("POWER", g.math("ABSOLUTE", d), par.THETA_POWER))
@@ -136,11 +137,11 @@ def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=Fal
     out would silently drop the aureole); ``fog_image``: the single fog atlas, required with it
     for params with fog.
 
-    ``filtering``: "HARDWARE" blends the view-zenith axis with the texture unit (8 fetches;
-    Cycles, which has no mipmaps). "MANUAL" fetches texel centres with Closest interpolation and
-    blends them in the node tree (16 fetches): GPU engines (EEVEE) pick mip levels from
-    texture-coordinate derivatives, which are large where eq. (5) is steep (just below the
-    horizon), and a mipmapped fetch there mixes neighbouring tiles."""
+    ``filtering``: "HARDWARE" blends the view-zenith axis with the texture unit (8 fetches; Cycles,
+    which has no mipmaps). "MANUAL" fetches texel centres with Closest interpolation and blends them
+    in the node tree (16 fetches): GPU engines (EEVEE) pick mip levels from texture-coordinate
+    derivatives, which are large where Yusov 2013 eq. (5) is steep (just below the horizon), and a
+    mipmapped fetch there mixes neighbouring tiles."""
     if filtering not in FILTERING:
         raise ValueError(f"filtering must be one of {FILTERING}, got {filtering!r}")
     if mie_image is not None and params.has_fog and fog_image is None:
@@ -150,7 +151,8 @@ def build_lookup_group(image, dims, params, filtering="HARDWARE", compositor=Fal
     inputs = [("Height", "NodeSocketFloat", 0.0), ("Cos View Zenith", "NodeSocketFloat", 1.0),
               ("Cos Sun Zenith", "NodeSocketFloat", 1.0), ("Cos Sun View", "NodeSocketFloat", 1.0)]
     outputs = [("Radiance", "NodeSocketVector", None)]
-    if compositor:      # eq. (8) needs its second look-up on the first one's side of the seam
+    # Yusov 2013 eq. (8) needs its second look-up on the first one's side of the seam.
+    if compositor:
         inputs += [("Force Horizon", "NodeSocketFloat", 0.0), ("Above Horizon", "NodeSocketFloat", 1.0)]
         outputs += [("Above Horizon", "NodeSocketFloat", None)]
     tree = new_group(name or (names.COMPOSITOR_LOOKUP_GROUP if compositor else names.LOOKUP_GROUP),

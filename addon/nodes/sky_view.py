@@ -3,10 +3,10 @@ read for the view and added, phases applied, to the 4D look-up. Twin:
 lut_gen.passes.sky_view.correction_at (the sky group's test renders it at a low sun).
 
 The image holds three tiles side by side (Rayleigh, Mie, fog; lut_gen.passes.sky_view.image_pixels),
-azimuth from the sun along x, view zenith along y on eq. (5)'s horizon split for the camera's
-height. Cycles filters both axes with the texture unit (each tile is continuous in both); GPU
-engines fetch texel centres and blend them here, as the 4D look-up's "MANUAL" filtering does
-(nodes/lookup.py: eq. (5) is steep at the horizon, and a mipmapped fetch there blurs it).
+azimuth from the sun along x, view zenith along y on Yusov 2013 eq. (5)'s horizon split for the
+camera's height. Cycles filters both axes with the texture unit (each tile is continuous in both);
+GPU engines fetch texel centres and blend them here, as the 4D look-up's "MANUAL" filtering does
+(nodes/lookup.py: Yusov 2013 eq. (5) is steep at the horizon, and a mipmapped fetch there blurs it).
 """
 from __future__ import annotations
 

@@ -12,9 +12,9 @@ where the column's vertical optical thickness is tau = density * thickness * fra
 - the ambient skylight on the layer's top (top_light.py), diffusely transmitted or reflected
   (slab.diffuse_shares: the two-stream fluxes with the slab's own angular shape);
 - the column hides alpha = 1 - exp(-tau / |mu_v|) of what lies behind it.
-The air between the camera and P hazes it. With S the sky's radiance from the camera and S_P
-the sky's from P along the same ray (both from the 4D table), eq. (8) gives the air's light in
-front of the cloud as S - T S_P, so
+The air between the camera and P hazes it. With S the sky's radiance from the camera and S_P the
+sky's from P along the same ray (both from the 4D table), Yusov 2013 eq. (8) gives the air's light
+in front of the cloud as S - T S_P, so
     sky with clouds = S + T (C - alpha S_P),
 T the air's transmittance camera -> P and C the cloud's light.
 

@@ -29,7 +29,7 @@ AIR_PRESETS = {
     **{name: look.scattering[1] * SEED_HAZE_ZENITH_LENGTH_M for name, look in HAZE_LOOKS.items()},
 }
 # Fog presets: (visibility m, scale height m). Morning fog in a valley: a radiation fog a few
-# tens of metres deep, a few hundred metres' visibility at the ground (issue 26).
+# tens of metres deep, a few hundred metres' visibility at the ground.
 FOG_PRESETS = {
     "morning-fog": (300.0, 50.0),
 }

@@ -1,12 +1,12 @@
 """Hoffman & Preetham's analytic atmosphere (2002): constant-density media, closed forms, no bake.
 
-Their Eqs. 1-5, RGB, single scattering of the sun only:
+Hoffman & Preetham Eqs. 1-5 (numbered as in their paper), RGB, single scattering of the sun only:
 
-- Eq. 1: L = F_ex L0 + L_in.
-- Eq. 3: F_ex(s) = exp(-beta_ex s).
-- Eq. 4: L_in(s, theta) = E_sun beta_sc(theta) / beta_ex (1 - exp(-beta_ex s)), beta_sc(theta) the
+- (1) L = F_ex L0 + L_in.
+- (3) F_ex(s) = exp(-beta_ex s).
+- (4) L_in(s, theta) = E_sun beta_sc(theta) / beta_ex (1 - exp(-beta_ex s)), beta_sc(theta) the
   Rayleigh and haze scattering coefficients times their phase functions, summed.
-- Eq. 5: the optical length toward zenith angle theta (degrees) l = l_zenith / (cos theta +
+- (5) the optical length toward zenith angle theta (degrees) l = l_zenith / (cos theta +
   0.15 (93.885 - theta)^-1.253) (Kasten's air mass), for the sun's extinction and the sky's length.
 - The sky as two shells: air and haze for s_haze, air alone for s_air - s_haze beyond.
 
@@ -29,15 +29,16 @@ as it does on the tables:
   1.25 km for its profiles. From a camera at height h they shrink by exp(-h / H).
 
 The sky's length for a ray that hits nothing: the seed sizes its sky mesh to the air's optical
-length in every direction, so a view ray ends at Eq. 5's optical length for its own zenith angle,
-the length of an equivalent homogeneous atmosphere along it; the haze shell is the same length
-times l_haze / l_air. Below the horizon a ray ends at the flat ground (h / -cos) when that is
-nearer, and the ground there is lit by the extinguished sun (Lambertian, ``ground_albedo``).
+length in every direction, so a view ray ends at Hoffman & Preetham Eq. 5's optical length for its
+own zenith angle, the length of an equivalent homogeneous atmosphere along it; the haze shell is the
+same length times l_haze / l_air. Below the horizon a ray ends at the flat ground (h / -cos) when
+that is nearer, and the ground there is lit by the extinguished sun (Lambertian, ``ground_albedo``).
 
 Everything is per unit extraterrestrial sun (E0 = 1), like the tables. The sun is below the
-horizon when its zenith angle passes 90 deg (Eq. 5 is Kasten's fit for apparent zenith angles up
-to 90 deg; past 91 deg it falls again and would light the sky from under the ground): its disc
-sets over its own angular radius, and the analytic sky has no twilight.
+horizon when its zenith angle passes 90 deg (Hoffman & Preetham Eq. 5 is Kasten's fit for
+apparent zenith angles up to 90 deg; past 91 deg it falls again and would light the sky from
+under the ground): its disc sets over its own angular radius, and the analytic sky has no
+twilight.
 """
 from __future__ import annotations
 
@@ -143,19 +144,20 @@ def hg_phase(cos_theta, g: float):
     return (1.0 - g * g) / (4.0 * math.pi * np.power(1.0 + g * g - 2.0 * g * c, 1.5))
 
 
-# -- Eq. 5 --------------------------------------------------------------------------------------
+# -- Hoffman & Preetham Eq. 5 -------------------------------------------------------------------
 
 def air_mass(cos_zenith):
-    """Eq. 5 without l_zenith: 1 / (cos theta + 0.15 (93.885 - theta)^-1.253), theta in degrees,
-    clamped at the horizon (36.5 there)."""
+    """Hoffman & Preetham Eq. 5 without l_zenith: 1 / (cos theta + 0.15 (93.885 - theta)^-1.253),
+    theta in degrees, clamped at the horizon (36.5 there)."""
     c = np.clip(np.asarray(cos_zenith, dtype=np.float64), 0.0, 1.0)
     theta = np.degrees(np.arccos(c))
     return 1.0 / (c + 0.15 * np.power(93.885 - theta, -1.253))
 
 
 def optical_length(cos_zenith, zenith_length, height=0.0, scale_height=None):
-    """Eq. 5's optical length toward ``cos_zenith`` from ``height`` (the density there, relative
-    to the ground, scales it: the optical length is the integrated density over the ground's)."""
+    """Hoffman & Preetham Eq. 5's optical length toward ``cos_zenith`` from ``height`` (the density
+    there, relative to the ground, scales it: the optical length is the integrated density over the
+    ground's)."""
     scale = 1.0 if scale_height is None else np.exp(-np.maximum(height, 0.0) / scale_height)
     return zenith_length * air_mass(cos_zenith) * scale
 
@@ -174,14 +176,14 @@ def extinction(m: AnalyticMedia, s_air, s_haze):
 
 
 def sun_transmittance(m: AnalyticMedia, cos_sun, height=0.0):
-    """E_sun / E0 at ``height``: Eq. 5's optical lengths in Eq. 3, times the visible part of the
-    disc."""
+    """E_sun / E0 at ``height``: Hoffman & Preetham Eq. 5's optical lengths in Eq. 3, times
+    the visible part of the disc."""
     s_air = optical_length(cos_sun, m.air_length, height, m.air_length)
     s_haze = optical_length(cos_sun, m.haze_length, height, m.haze_length)
     return extinction(m, s_air, s_haze) * sun_visibility(cos_sun)[..., None]
 
 
-# -- Eq. 4 --------------------------------------------------------------------------------------
+# -- Hoffman & Preetham Eq. 4 -------------------------------------------------------------------
 
 def angular_scattering(m: AnalyticMedia, cos_sun_view, air_density=1.0, haze_density=1.0):
     """beta_sc(theta) of air and haze at the given relative densities, RGB."""
@@ -192,8 +194,8 @@ def angular_scattering(m: AnalyticMedia, cos_sun_view, air_density=1.0, haze_den
 
 
 def segment(m: AnalyticMedia, cos_sun_view, length, e_sun, air_density=1.0, haze_density=1.0):
-    """(F_ex, L_in) of a constant-density segment of ``length`` m: Eqs. 3 and 4 with both media at
-    the given densities relative to the ground. ``e_sun``: E_sun / E0, RGB."""
+    """(F_ex, L_in) of a constant-density segment of ``length`` m: Hoffman & Preetham Eqs. 3 and 4
+    with both media at the given densities relative to the ground. ``e_sun``: E_sun / E0, RGB."""
     length = np.asarray(length, dtype=np.float64)[..., None]
     air = np.asarray(air_density, dtype=np.float64)[..., None]
     haze = np.asarray(haze_density, dtype=np.float64)[..., None]
@@ -263,9 +265,9 @@ def segment_densities(m: AnalyticMedia, start, end):
 
 def aerial_perspective(m: AnalyticMedia, camera, points, surface_radiance, sun, sun_strength=1.0,
                        scattering_scale=1.0):
-    """Eq. 1 between the camera and ``points`` (..., 3): (image, transmittance, in-scattering), the
-    air light times ``sun_strength * scattering_scale`` like the precomputed pass. E_sun is the
-    sun's extinction at the camera's height, once a frame (the seed's choice)."""
+    """Hoffman & Preetham Eq. 1 between the camera and ``points`` (..., 3): (image, transmittance,
+    in-scattering), the air light times ``sun_strength * scattering_scale`` like the precomputed
+    pass. E_sun is the sun's extinction at the camera's height, once a frame (the seed's choice)."""
     camera = np.asarray(camera, dtype=np.float64)
     points = np.asarray(points, dtype=np.float64)
     sun = np.asarray(sun, dtype=np.float64)
@@ -281,9 +283,9 @@ def aerial_perspective(m: AnalyticMedia, camera, points, surface_radiance, sun, 
 
 # -- the terrain's light ------------------------------------------------------------------------
 
-# The ambient skylight: the analytic sky's irradiance on a horizontal plane AMBIENT_HEIGHT_M up
-# (the precomputed tables' eq. (3) height), at AMBIENT_NODES suns evenly spaced in cos from the
-# horizon to the zenith, linear between. The groups hold the same nodes as constants: no image.
+# The ambient skylight: the analytic sky's irradiance on a horizontal plane AMBIENT_HEIGHT_M up (the
+# precomputed tables' Yusov 2013 eq. (3) height), at AMBIENT_NODES suns evenly spaced in cos from
+# the horizon to the zenith, linear between. The groups hold the same nodes as constants: no image.
 AMBIENT_NODES = 17
 AMBIENT_HEIGHT_M = 20.0
 

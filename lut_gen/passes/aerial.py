@@ -9,7 +9,7 @@ World convention (docs/design.md): metres, Z up, ground at z = 0, Earth centre a
   (net density to the top from the nearer end minus from the farther end, along the ray, or
   along the reversed ray where the forward one hits the ground).
 * ``segment_inscattering``: eq. (8) of Yusov 2013, L(C) - T(C->P) L(P), both look-ups on the
-  same side of the horizon seam (Listing 2).
+  same side of the horizon seam (Yusov 2013 Listing 2).
 * ``light_shafts``: ray marching through a shadow test with the sample's single-scattering
   modes (none / integration / LUT) and multiple-scattering modes (none / occluded /
   unoccluded).
@@ -138,7 +138,8 @@ def segment_inscattering(luts: Luts, start, end, sun_direction, table: str = "mu
 
 def aerial_perspective(luts: Luts, camera, points, surface_radiance, sun_direction, sun_strength=1.0,
                        scattering_scale=1.0):
-    """Surface radiance seen through the air: L_surface T(C->P) + in-scattering (eq. 8)."""
+    """Surface radiance seen through the air: L_surface T(C->P) + in-scattering
+    (Yusov 2013 eq. 8)."""
     transmittance = segment_transmittance(luts, camera, points)
     inscatter = segment_inscattering(luts, camera, points, sun_direction)
     return np.asarray(surface_radiance) * transmittance + inscatter * sun_strength * scattering_scale
@@ -256,7 +257,7 @@ def apply_modes(luts: Luts, camera, end, sun, lit_length, first_lit, integrated,
 
 
 def _section(luts, camera, start, end, direction, sun, table):
-    """Eq. (8) for the lit section start -> end seen from the camera."""
+    """Yusov 2013 eq. (8) for the lit section start -> end seen from the camera."""
     return section_inscattering(luts, start, end, direction, sun, table, segment_transmittance(luts, camera, start),
                                 segment_transmittance(luts, camera, end))
 
@@ -266,19 +267,19 @@ HORIZON_BLEND_HEIGHT = 20.0  # ... narrowed so the tilted rays end at most this 
 
 
 def uses_horizon_blend(params) -> bool:
-    """Whether eq. (8) blends across the horizon seam: not in fog. There the tilted rays differ
-    physically (from 2 m up the lower one meets the ground 400 m out), and the tables' two
-    halves agree without it: single scattering to the ground 0.1-5 km from a camera 2 m up in
-    a 1 km / 50 m and a 300 m / 20 m fog, sun 20 deg, was 0.90-1.02x of brute force blended,
-    1.00-1.02x without (tilted rays ending 5 m or 1 m off: 0.93-1.07x, 1.00-1.12x)."""
+    """Whether Yusov 2013 eq. (8) blends across the horizon seam: not in fog. There the tilted rays
+    differ physically (from 2 m up the lower one meets the ground 400 m out), and the tables' two
+    halves agree without it: single scattering to the ground 0.1-5 km from a camera 2 m up in a 1 km
+    / 50 m and a 300 m / 20 m fog, sun 20 deg, was 0.90-1.02x of brute force blended, 1.00-1.02x
+    without (tilted rays ending 5 m or 1 m off: 0.93-1.07x, 1.00-1.12x)."""
     return not params.has_fog
 
 
 def section_inscattering(luts, start, end, direction, sun, table, start_transmittance, end_transmittance, phase_free=False):
-    """T_start L(start) - T_end L(end), both look-ups on the side of the horizon seam the first
-    one chose (Listing 2). Within HORIZON_BLEND of the start's horizon the two sides of the
-    seam disagree by the tables' interpolation error (about 15% near the ground), which draws a
-    step along the horizon: there, as in Bruneton's reference implementation, eq. (8) is taken
+    """T_start L(start) - T_end L(end), both look-ups on the side of the horizon seam the first one
+    chose (Yusov 2013 Listing 2). Within HORIZON_BLEND of the start's horizon the two sides of the
+    seam disagree by the tables' interpolation error (about 15% near the ground), which draws a step
+    along the horizon: there, as in Bruneton's reference implementation, Yusov 2013 eq. (8) is taken
     along the rays HORIZON_BLEND below and above the horizon (same length) and blended. The band
     narrows for long sections so the tilted rays end within HORIZON_BLEND_HEIGHT of the true end
     (measured: the step drops from 5-22% to 0.1-5%, the error against brute force stays 2.5% p90);

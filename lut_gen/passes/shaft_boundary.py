@@ -3,8 +3,8 @@
 A march with a shadow test at each step's centre knows a ray's lit length and first lit
 distance only to a whole step: as the view rises over a wall against a low sun, the place where
 its ray leaves the wall's shadow slides smoothly along it, but the march answered in whole
-steps, and the darkened sky above the wall came out in bands a step tall (issue 25: blocks of
-5% of the sky's light, where the physics has a smooth gradient).
+steps, and the darkened sky above the wall came out in bands a step tall (blocks of 5% of the
+sky's light, where the physics has a smooth gradient).
 
 Both techniques (the brute-force march, lut_gen.passes.aerial.light_shafts and its node
 groups, and the epipolar tables, lut_gen.passes.epipolar) therefore take the ray's first change

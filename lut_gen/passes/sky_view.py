@@ -10,7 +10,7 @@ camera height and the sun are fixed, so the sky the camera sees is a 2D function
 integrated on a 2D grid of views (bake.bake_single's integrator, the bake's wavelengths), it
 needs no interpolation across sun zenith, height or coarse sun-view nodes.
 
-The grid: NODES_VIEW view zeniths split at the camera's horizon like eq. (5)
+The grid: NODES_VIEW view zeniths split at the camera's horizon like Yusov 2013 eq. (5)
 (parameterization.view_zenith_to_x), and NODES_AZIMUTH azimuths from the sun, evenly spaced
 over [0, pi] (the sky is symmetric about the sun's vertical plane). It holds what the tables
 miss, phase-free like them: exact minus looked up, for single Rayleigh, single Mie and (with

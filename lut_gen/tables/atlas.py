@@ -11,9 +11,9 @@ Layout (pixel rows counted bottom to top, Blender's convention; x to the right):
 For the default 32 x 128 x 64 x 16 tables this is a 2048 x 2048 image. A look-up filters the
 view- and sun-zenith axes in hardware (bilinear inside one tile, texture coordinate
 ((i_t*n_a + x_a + 0.5) / W, (i_h*n_s + x_s + 0.5) / H) with x_a, x_s clamped to the tile) and
-blends the four tiles of the neighbouring height and sun-view nodes by hand (Listing 1 of
-Yusov 2013 does the same with one manual axis in a 3D texture). The view-zenith axis never
-blends across its horizon seam (Listing 2 keeps x_a inside one half).
+blends the four tiles of the neighbouring height and sun-view nodes by hand (Yusov 2013 Listing 1
+does the same with one manual axis in a 3D texture). The view-zenith axis never blends across its
+horizon seam (Yusov 2013 Listing 2 keeps x_a inside one half).
 """
 from __future__ import annotations
 

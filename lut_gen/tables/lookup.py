@@ -9,9 +9,9 @@ phase function (Bruneton 2017's idea). A look-up interpolates both and returns
 stored * P_R(nu) + mie * P_M(nu, g): the Mie phase, which rises 100-fold within a few degrees
 of the sun, is applied exactly per query instead of being interpolated across the 16 sun-view
 nodes (that gave a square, banded aureole 35% too dark). Dividing by the Rayleigh phase keeps
-the (1 + cos^2) curvature across the sparse mid-angle cells of eq. (7) out of the
-interpolation (~2% median error otherwise). Eq. (8) is unaffected: both of its look-ups share
-the sun-view angle. The "single" and "multiple" tables have the Mie part, "higher" has none.
+the (1 + cos^2) curvature across the sparse mid-angle cells of Yusov 2013 eq. (7) out of the
+interpolation (~2% median error otherwise). Yusov 2013 eq. (8) is unaffected: both of its look-ups
+share the sun-view angle. The "single" and "multiple" tables have the Mie part, "higher" has none.
 Rays that hit the ground are also divided by parameterization.look_up_scale, a function of
 their length (see geometry.ground_ray_scale), and multiplied by it at look-up.
 """
@@ -211,9 +211,9 @@ class Luts:
                        azimuths: int = SKY_IRRADIANCE_AZIMUTHS) -> np.ndarray:
         """(n, 3) E_sky(h, c_s): the 4D table's radiance over the upper hemisphere at
         ``height_m``, times (w . N), per unit sun, for each of the (n,) sun zenith cosines
-        (eq. 3; the ambient table is this at AMBIENT_HEIGHT_M). Gauss-Legendre in the zenith
-        cosine, midpoints over half a circle of azimuth (the sky is symmetric about the sun's
-        plane)."""
+        (Yusov 2013 eq. 3; the ambient table is this at AMBIENT_HEIGHT_M). Gauss-Legendre in the
+        zenith cosine, midpoints over half a circle of azimuth (the sky is symmetric about the
+        sun's plane)."""
         mu, mu_w = np.polynomial.legendre.leggauss(zeniths)
         mu, mu_w = 0.5 * (mu + 1), 0.5 * mu_w
         az = (np.arange(azimuths) + 0.5) * np.pi / azimuths
@@ -226,6 +226,6 @@ class Luts:
         return np.einsum("nmac,m->nc", radiance, mu * mu_w * az_w)
 
     def ambient_skylight(self, cos_sun_zenith) -> np.ndarray:
-        """Irradiance on a horizontal plane from the whole sky (eq. 3), per unit sun."""
+        """Irradiance on a horizontal plane from the whole sky (Yusov 2013 eq. 3), per unit sun."""
         x = par.unit_to_centre_x(np.asarray(cos_sun_zenith) * 0.5 + 0.5, self.ambient.shape[0])
         return interpolate(self.ambient, (x,))

@@ -5,20 +5,20 @@ node i holds the value at x = i, a look-up at x blends nodes floor(x) and floor(
 A GPU/Blender texture coordinate for the same point is (x + 0.5) / N.
 
 Axes of the 4D scattering table, in this order:
-  h      height above ground,        u_h = sqrt(h / H_atm)                         (eq. 4)
-  alpha  cos view zenith c_a,        horizon-split power-0.2 mapping              (eq. 5, Listing 2)
-  phi    cos sun zenith c_s,         Bruneton's arctan mapping                     (eq. 6)
-  theta  cos sun-view angle c_t,     power-1.5 mapping of gamma = theta / pi       (eq. 7)
+  h      height above ground,     u_h = sqrt(h / H_atm)                    (Yusov 2013 eq. 4)
+  alpha  cos view zenith c_a,     horizon-split power-0.2 mapping          (Yusov 2013 eq. 5, Listing 2)
+  phi    cos sun zenith c_s,      Bruneton's arctan mapping                (Yusov 2013 eq. 6)
+  theta  cos sun-view angle c_t,  power-1.5 mapping of gamma = theta / pi  (Yusov 2013 eq. 7)
 
-Eq. (6) as printed in Yusov 2013 puts tan(1.26*1.1) outside the arctan; Bruneton's code (and the
+Yusov 2013 eq. (6) as printed puts tan(1.26*1.1) outside the arctan; Bruneton's code (and the
 only version that maps [-0.1975, 1] onto [0, 1]) multiplies inside: atan(c * tan(1.386)) / 1.1.
 
-Eq. (7) with power 1.5 packs sun-view nodes around the sun for the Mie forward peak. The tables
-no longer hold that peak (single Mie scattering is stored without its phase function, which is
-applied per look-up), and the power left a 30 deg gap around 90 deg whose node kinks showed in
+Yusov 2013 eq. (7) with power 1.5 packs sun-view nodes around the sun for the Mie forward peak. The
+tables no longer hold that peak (single Mie scattering is stored without its phase function, which
+is applied per look-up), and the power left a 30 deg gap around 90 deg whose node kinks showed in
 the twilight sky at +-105 deg from the sun. Power 1 spaces the 16 nodes 12 deg apart: the single
-table's error against the spectral reference is the same with either power (median 0.23% on
-uniform random rays) and the twilight kinks shrink to about 1% of slope per 0.5 deg.
+table's error against the spectral reference is the same with either power (median 0.23% on uniform
+random rays) and the twilight kinks shrink to about 1% of slope per 0.5 deg.
 """
 from __future__ import annotations
 
@@ -28,9 +28,9 @@ import numpy as np
 
 from ..model.geometry import GROUND_RAY_SCALE_M, ground_ray_scale
 
-ALPHA_POWER = 0.2          # eq. (5)
-THETA_POWER = 1.0          # eq. (7) used 1.5; see the module docstring
-SUN_ZENITH_MIN_COS = -0.1975   # eq. (6): sun more than ~101 deg from zenith clamps here
+ALPHA_POWER = 0.2          # Yusov 2013 eq. (5)
+THETA_POWER = 1.0          # Yusov 2013 eq. (7) used 1.5; see the module docstring
+SUN_ZENITH_MIN_COS = -0.1975   # Yusov 2013 eq. (6): sun more than ~101 deg from zenith clamps here
 _PHI_ANGLE = 1.26 * 1.1
 _PHI_TAN = math.tan(_PHI_ANGLE)
 
@@ -41,18 +41,18 @@ def cos_horizon(height_m, earth_radius: float):
     return -np.sqrt(h * (2.0 * earth_radius + h)) / (earth_radius + h)
 
 
-# -- height (eq. 4) ----------------------------------------------------------
+# -- height (Yusov 2013 eq. 4) -----------------------------------------------
 #
 # With a fog layer the height axis is logarithmic instead: u = ln(1 + h/k) / ln(1 + H/k) with
-# k = FOG_KNEE_SHARE x the fog's scale height. Eq. (4)'s square root puts the first row 83 m up
-# at 32 rows, above a 50 m fog, and the geometric blend between the ground's row (in the fog)
-# and that one (above it) was 20% off for a camera 2 m up, 40% at 30 m.
+# k = FOG_KNEE_SHARE x the fog's scale height. Yusov 2013 eq. (4)'s square root puts the first row
+# 83 m up at 32 rows, above a 50 m fog, and the geometric blend between the ground's row (in the
+# fog) and that one (above it) was 20% off for a camera 2 m up, 40% at 30 m.
 
 FOG_KNEE_SHARE = 0.5
 
 
 def fog_knee(params):
-    """k of the logarithmic height axis for params with fog, None for eq. (4)'s."""
+    """k of the logarithmic height axis for params with fog, None for Yusov 2013 eq. (4)'s."""
     return FOG_KNEE_SHARE * params.fog_height if params.has_fog else None
 
 
@@ -72,13 +72,13 @@ def x_to_height(x, n: int, atmosphere_height: float, knee=None):
     return knee * np.expm1(u * math.log1p(atmosphere_height / knee))
 
 
-# -- view zenith (eq. 5, Listing 2) ----------------------------------------
+# -- view zenith (Yusov 2013 eq. 5, Listing 2) -------------------------------
 
 def view_zenith_to_x(cos_view_zenith, height_m, n: int, earth_radius: float, above_horizon=None):
     """Texel x on the alpha axis and the horizon flag used.
 
     ``above_horizon`` forces the half of the table (the flag of an earlier look-up on the same
-    ray, Listing 2); None decides per ray from c_a > c_h.
+    ray, Yusov 2013 Listing 2); None decides per ray from c_a > c_h.
     """
     c = np.asarray(cos_view_zenith, dtype=np.float64)
     c_h = cos_horizon(height_m, earth_radius)
@@ -104,7 +104,7 @@ def x_to_view_zenith(x, height_m, n: int, earth_radius: float):
     return c, above
 
 
-# -- sun zenith (eq. 6) -------------------------------------------------------
+# -- sun zenith (Yusov 2013 eq. 6) -------------------------------------------
 
 def sun_zenith_to_x(cos_sun_zenith, n: int):
     c = np.maximum(np.asarray(cos_sun_zenith, dtype=np.float64), SUN_ZENITH_MIN_COS)
@@ -117,7 +117,7 @@ def x_to_sun_zenith(x, n: int):
     return np.tan((2.0 * u - (1.0 - 0.26)) * 1.1) / _PHI_TAN
 
 
-# -- sun-view angle (eq. 7) ---------------------------------------------------
+# -- sun-view angle (Yusov 2013 eq. 7) ---------------------------------------
 
 def sun_view_to_x(cos_sun_view, n: int):
     gamma = np.arccos(np.clip(np.asarray(cos_sun_view, dtype=np.float64), -1.0, 1.0)) / math.pi

@@ -98,7 +98,7 @@ def test_a_render_while_the_preview_shows_uses_the_new_tables(wired, tmp_path):
     bake = baking.BackgroundBake(params, FULL, preview=True)
     wait_for(lambda: bake.preview_ready or bake.done)
     baking.swap_in(scene, bake.preview_directory, preview=True)
-    # A file saved now, rendered by a farm worker while this session's bake still runs: the
+    # A file saved now, rendered by a farm worker while this process's bake still runs: the
     # worker re-bakes the tables the scene asks for on load and renders with them.
     blend = tmp_path / "saved_in_preview.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
@@ -108,7 +108,7 @@ def test_a_render_while_the_preview_shows_uses_the_new_tables(wired, tmp_path):
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     assert "saved showing the draft preview" in result.stdout
     assert "draft preview tables" not in result.stdout        # render_init's warning: not rendered in preview
-    # In this session the Render operator waits for the bake and swaps the new tables in first.
+    # In this process the Render operator waits for the bake and swaps the new tables in first.
     output = tmp_path / "ui.png"
     assert bpy.ops.ols.render(filepath=str(output)) == {"FINISHED"}
     assert not baking.showing_preview(scene)

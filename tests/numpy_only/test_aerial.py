@@ -171,9 +171,9 @@ def test_segment_transmittance_given_the_direction_equals_it_found(default_luts)
 
 @pytest.mark.parametrize("distance", [3000.0, 8000.0, 30000.0])
 def test_inscattering_has_no_step_at_the_horizon(default_luts, distance):
-    """Eq. (8) across the camera's horizon: within 10% of the brute-force segment integral and
-    no jump between neighbouring rays (the two sides of the table's horizon seam disagree by
-    about 15% near the ground; the blend hides it)."""
+    """Yusov 2013 eq. (8) across the camera's horizon: within 10% of the brute-force segment
+    integral and no jump between neighbouring rays (the two sides of the table's horizon seam
+    disagree by about 15% near the ground; the blend hides it)."""
     camera, points = horizon_sweep(distance)
     points = points[points[:, 2] > 0.0]                   # no segments into the ground
     sun = np.array([0.9, 0.2, 0.35]) / np.linalg.norm([0.9, 0.2, 0.35])     # off the Mie peak (see README)

@@ -1,6 +1,7 @@
 """Hoffman & Preetham's analytic model (lut_gen.model.analytic): its closed forms against
 brute-force quadrature of the same constant-density media, its constants against the seed's
-printed numbers, Eq. 5 against an exponential atmosphere on the sphere, and bad input."""
+printed numbers, Hoffman & Preetham Eq. 5 against an exponential atmosphere on the sphere, and
+bad input."""
 import dataclasses
 import math
 
@@ -24,7 +25,7 @@ def _quadrature(f, length, steps=20_000):
 
 def _march_inscattering(m, cos_sun_view, e_sun, air_of, haze_of, length):
     """L_in = int E_sun beta_sc(theta, t) exp(-int_0^t beta_ex) dt for densities air_of(t),
-    haze_of(t) along the ray: the transfer equation written out, not Eq. 4."""
+    haze_of(t) along the ray: the transfer equation written out, not Hoffman & Preetham Eq. 4."""
     steps = 20_000
     t = np.linspace(0.0, length, steps + 1)
     air, haze = air_of(t), haze_of(t)
@@ -96,7 +97,7 @@ def test_the_dark_surface_gains_air_light_and_a_bright_one_dims():
 @pytest.mark.parametrize("cos_view", [1.0, 0.5, 0.1, 0.0])
 def test_the_two_shell_sky_matches_quadrature_along_the_ray(media, cos_view):
     """The sky along a view ray: haze and air to s_haze, air alone to s_air (the module's sky
-    distance: Eq. 5's optical length for the ray's zenith angle)."""
+    distance: Hoffman & Preetham Eq. 5's optical length for the ray's zenith angle)."""
     sun = np.array([0.0, math.cos(math.radians(25.0)), math.sin(math.radians(25.0))])
     view = np.array([0.0, math.sqrt(1 - cos_view ** 2), cos_view])
     s_air, s_haze = analytic.sky_lengths(media, cos_view)
@@ -149,7 +150,8 @@ def test_the_sun_sets_over_its_disc_and_reddens_on_the_way():
     assert analytic.sun_transmittance(m, math.sin(math.radians(-1.0))).max() == 0.0
     half = analytic.sun_transmittance(m, 0.0)
     np.testing.assert_allclose(half, analytic.extinction(m, m.air_length * 36.51, m.haze_length * 36.51) / 2, rtol=1e-3)
-    # Eq. 5 past the horizon is clamped there: never the fit's second, falling branch
+    # Hoffman & Preetham Eq. 5 past the horizon is clamped there: never the fit's second, falling
+    # branch
     assert np.isfinite(analytic.air_mass(np.array([-0.05, -0.5, -1.0]))).all()
 
 

@@ -1,7 +1,8 @@
 """Light shafts under the analytic model (lut_gen.passes.analytic_shafts): the closed forms of
 every mode against a brute-force march of the same constant-density medium through the same
-shadows (quadrature of E_sun beta_sc exp(-beta t) lit(t) over a fine grid, not Eq. 4), the
-epipolar INTEGRATION table against the same, and no occluder = the analytic aerial perspective."""
+shadows (quadrature of E_sun beta_sc exp(-beta t) lit(t) over a fine grid, not
+Hoffman & Preetham Eq. 4), the epipolar INTEGRATION table against the same, and no occluder =
+the analytic aerial perspective."""
 import math
 
 import numpy as np

@@ -26,7 +26,7 @@ def random_rays(n, seed, max_height=20_000.0, max_sun_zenith_deg=95.0):
     return h, cos_view, cos_sun, cos_sun_view
 
 
-def issue_rays(n, seed):
+def accuracy_bar_rays(n, seed):
     """The rays of the accuracy bar: heights 0-20 km squared (dense near the ground), a tenth
     of them downward rays from 0-20 m, a tenth the zenith with the sun within 35 deg of it, a
     tenth within 5 deg of the sun, the rest any view; sun zenith 0-95 deg."""
@@ -64,7 +64,7 @@ def relative_error(got, want):
 def single_vs_reference(default_luts):
     """The single table against the spectral brute-force reference (every 10 nm, 48
     wavelengths, converted with the same solar spectrum and colour-matching functions)."""
-    rays, groups = issue_rays(1000, seed=11)
+    rays, groups = accuracy_bar_rays(1000, seed=11)
     want = reference.spectral(reference.single_scattering, P, *rays)
     got = default_luts.sky_radiance(*rays, table="single")
     return rays, groups, relative_error(got, want)
@@ -130,7 +130,7 @@ def test_sample_preset_single_table_matches_three_channel_reference():
     """The Sample 2013 media bake three wavelengths as RGB, as the sample did."""
     sample = AtmosphereParams(spectral=False, ozone=False, ground_albedo=0.0)
     luts = lut_gen.bake(sample, resolution="draft", orders=1)
-    rays, _ = issue_rays(300, seed=4)
+    rays, _ = accuracy_bar_rays(300, seed=4)
     err = relative_error(luts.sky_radiance(*rays, table="single"), reference.single_scattering(sample, *rays))
     assert np.median(err) <= 0.02
 
@@ -262,7 +262,7 @@ def test_transmittance_to_top_matches_reference(default_luts):
 
 
 def test_ambient_skylight_is_the_hemisphere_integral(default_luts):
-    """Eq. (3) checked with an independent quadrature (Fibonacci hemisphere)."""
+    """Yusov 2013 eq. (3) checked with an independent quadrature (Fibonacci hemisphere)."""
     n = 20_000
     k = np.arange(n) + 0.5
     mu = k / n

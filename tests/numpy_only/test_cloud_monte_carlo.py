@@ -8,7 +8,7 @@ monte_carlo.radiance_by_order (all orders), without the air it is the slab trace
 (slab_monte_carlo.trace). Both sides use the same three-channel media (the default atmosphere at
 680/550/440 nm, ``spectrum.triple_params``), the model through a draft bake of them.
 
-The issue's bar: radiance and transmittance of a uniform layer within 10% of the path tracer at
+The bar: radiance and transmittance of a uniform layer within 10% of the path tracer at
 sun 60, 20 and 5 deg, from below and above. Geometries: optical thickness 20 (the default
 density) and 2.5; seen from below (camera at 2 m, looking up at 60 and 20 deg) and from above
 (camera at 3 km, looking down at 60 and 20 deg); the sun at 60, 20 and 5 deg elevation, in the
@@ -23,7 +23,7 @@ thin layer seen from above, down 20 toward a sun at 60: 0.92x). With a quarter o
 (standard errors 2-7%) four geometries under a sun 5 deg high read 0.102-0.111, within two of
 their standard errors; more paths took them to 0.03-0.085.
 
-What was fixed (2026-12-03, fourth session; 15 of 54 were within the bar before, the worst 20x):
+What was fixed (2026-12-03; 15 of 54 were within the bar before, the worst 20x):
 1. The air between the camera and the cloud was lit as clear sky; under the deck it is in the
    cloud's shadow. lut_gen/clouds/air_shade.py shades its single scattering and higher orders by
    the sun's mean transmittance through the layer and adds the clouds' own light scattered by

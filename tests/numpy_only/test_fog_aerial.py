@@ -1,4 +1,4 @@
-"""Aerial perspective's transmittance in fog from a camera 2 m up (issue 26: "a 20 m fog scale
+"""Aerial perspective's transmittance in fog from a camera 2 m up (the requirement: "a 20 m fog scale
 height near the ground must come out right ... in the aerial perspective from a camera 2 m
 up"): lut_gen.passes.aerial.segment_transmittance, the twin of the add-on's "OLS Segment
 Transmittance" group, read from the default-size optical-depth table, against brute-force

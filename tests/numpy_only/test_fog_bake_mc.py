@@ -1,4 +1,4 @@
-"""The baked fog against the Monte Carlo path tracer (issue 26's bar for the fog's multiple
+"""The baked fog against the Monte Carlo path tracer (the bar for the fog's multiple
 scattering): with the fog layer as a fourth medium and the orders counted apart, at visibility
 1 km and 5 km (scale height 50 m), on ``verify.fog.fog_geometries``' 15 geometries (inside the
 fog, just above its top, looking down on it from 500 m; toward a low sun and away from it, and
@@ -58,7 +58,7 @@ PATH_FACTOR = {
     (5000.0, "500 m, down 10, sun 5 away"): 2,
 }
 
-# Bars (issue 26).
+# Bars: the fog's totals within 5% median and 15% max of the path tracer.
 TOTAL_MEDIAN, TOTAL_MAX = 0.05, 0.15
 # The path tracer's standard errors (relative RGB norms) must stay well under them.
 SE_MEDIAN, SE_MAX = 0.02, 0.025

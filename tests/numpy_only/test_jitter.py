@@ -42,7 +42,7 @@ def _measured(images, pixels, margin=4):
 
 
 def test_jitter_trades_the_bands_of_16_steps_for_noise_and_its_mean_takes_the_noise_out(pillar_march):
-    """Issue 27's bar at 16 steps: the largest step between neighbouring pixels of the blurred
+    """The bar at 16 steps: the largest step between neighbouring pixels of the blurred
     error (the bands) falls by at least 4x, and the mean error against the 256-step march does
     not grow. Measured (fractions of the shafts' size, sky pixels): banding step 0.20 -> 0.03,
     raw neighbour step 0.94 -> 0.15, mean |error| 0.111 -> 0.068 (the noise alone, without the

@@ -1,4 +1,4 @@
-"""Single scattering at a low sun (issue 26): the tables against the spectral reference with
+"""Single scattering at a low sun: the tables against the spectral reference with
 the sun from +5 to -6 deg, views toward it included, and the two pieces of the bake that
 decide it: the parabolas between a view ray's nodes and the log-linear spectra."""
 
@@ -38,7 +38,7 @@ def low_sun_errors(default_luts):
 
 
 def test_low_sun_single_scattering(low_sun_errors):
-    """Issue 26's bar is p99 <= 5%: not met. Measured on 600 rays per seed: median 1.04-1.06%,
+    """The bar is p99 <= 5%: not met. Measured on 600 rays per seed: median 1.04-1.06%,
     p90 2.1-2.4%, p99 8.6-17% (seeds 1, 2, 3, 7, 8: 8.6, 11, 14, 17, 11.5%); before the
     parabolas and the log-linear spectra median 1.3%, p90 4.5%, p99 16-22% (seed 7: 22%). The
     tail is the look-up between nodes at twilight: the tables' nodes there are within 1-2%, but

@@ -88,10 +88,10 @@ GEOMETRIES = {
     "8 km, view -2 (sky below the horizontal), sun 30, azimuth 90": ray(8000, -2, 30, 90),
     "8 km, view -45 (ground), sun 40, azimuth 90": ray(8000, -45, 40, 90),
 }
-# The sunset glow (issue 26's bar: within 10%, max, from sun +5 to -6 deg, views toward the sun
+# The sunset glow (the bar: within 10%, max, from sun +5 to -6 deg, views toward the sun
 # included). Measured 2026-12-04 with two sets of seeds: median 1.8%, max 5.1% (these seeds) and
 # 7.8% (the view 3 deg up 30 deg from a sun on the horizon, MC standard error 1.4%); toward a
-# sun 2 deg up 2.7%, where the issue measured four orders alone 22% off. At sun -6
+# sun 2 deg up 2.7%, where four orders alone (without the tail) measured 22% off. At sun -6
 # deg the path tracer's standard error is 5-8% even at 8x the paths (the zenith 3.1%, 5 deg up
 # toward the sun 6.8%): too noisy to assert at a test's cost, so -6 is not in the set.
 LOW_SUN_GEOMETRIES = {
@@ -265,7 +265,7 @@ def twilight_comparison(default_luts):
 
 
 def test_deep_twilight_matches_monte_carlo(twilight_comparison):
-    """Sun -6 deg (issue 26's bar: within 10%, max). Measured: 2.7% at the zenith, 3.2% 5 deg
+    """Sun -6 deg (the bar: within 10%, max). Measured: 2.7% at the zenith, 3.2% 5 deg
     up toward the sun (standard errors 2.6% and 1.5%; against the tracer's own orders 1-12,
     2.4% and 2.4% with standard errors 4.0% and 2.9%)."""
     assert max(row["se"] for row in twilight_comparison.values()) <= 0.03, twilight_comparison

@@ -25,7 +25,7 @@ def test_view_zenith_halves_follow_listing2():
     assert not par.view_zenith_to_x(c_h, h, n, P.earth_radius)[1]     # the horizon ray itself is "below"
     x_down, above = par.view_zenith_to_x(-1.0, h, n, P.earth_radius)
     assert not above and x_down == pytest.approx(n / 2 - 1)
-    # Power 0.2 of eq. (5): halfway up the upper half is (0.5)^5 of the way in cosine.
+    # Power 0.2 of Yusov 2013 eq. (5): halfway up the upper half is (0.5)^5 of the way in cosine.
     c_mid = c_h + 0.5 ** 5 * (1 - c_h)
     assert par.view_zenith_to_x(c_mid, h, n, P.earth_radius)[0] == pytest.approx(n / 2 + 0.5 * (n / 2 - 1))
 
@@ -54,15 +54,16 @@ def test_sun_zenith_mapping_is_bruneton_eq6():
     assert par.sun_zenith_to_x(1.0, n) == pytest.approx(n - 1, abs=1e-3)
     assert par.sun_zenith_to_x(-0.1975, n) == pytest.approx(0.0, abs=0.05)
     assert par.sun_zenith_to_x(-0.9, n) == par.sun_zenith_to_x(-0.1975, n)   # clamped below -0.1975
-    # Node 0 sits at c = -0.19774, a hair below the clamp of eq. (6); all others round-trip.
+    # Node 0 sits at c = -0.19774, a hair below the clamp of Yusov 2013 eq. (6); all others
+    # round-trip.
     x = np.arange(1, n, dtype=float)
     np.testing.assert_allclose(par.sun_zenith_to_x(par.x_to_sun_zenith(x, n), n), x, atol=1e-6)
 
 
 def test_sun_view_mapping_is_uniform_in_angle():
-    """Eq. (7) with power 1: with the Mie phase applied at look-up (no forward peak left in the
-    tables) nodes evenly spaced in angle (12 deg at 16 nodes) beat eq. (7)'s power 1.5, whose
-    30 deg gap around 90 deg put kinks into the twilight sky."""
+    """Yusov 2013 eq. (7) with power 1: with the Mie phase applied at look-up (no forward peak left
+    in the tables) nodes evenly spaced in angle (12 deg at 16 nodes) beat the paper's power 1.5,
+    whose 30 deg gap around 90 deg put kinks into the twilight sky."""
     n = 16
     assert par.sun_view_to_x(1.0, n) == pytest.approx(0.0)
     assert par.sun_view_to_x(0.0, n) == pytest.approx(0.5 * (n - 1))

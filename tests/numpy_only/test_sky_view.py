@@ -1,5 +1,5 @@
 """The camera's sky with the twilight correction (lut_gen.passes.sky_view) against the spectral
-reference: issue 26's low-sun bar (single scattering within 5%, p99, sun +5 to -6 deg, views
+reference: the low-sun bar (single scattering within 5%, p99, sun +5 to -6 deg, views
 toward it included) and the daytime sky it must leave as good as it was."""
 
 import math

@@ -97,7 +97,7 @@ def test_analytic_aerial_perspective_matches_its_twin(addon_package, tmp_path):
     err = np.abs(seen[geometry] - twin) / np.maximum(twin, 1e-6)
     print(f"analytic aerial: median {np.median(err):.2e}, p99 {np.percentile(err, 99):.2e}")
     # Measured: median 4e-8, p99 9e-7 (closed forms, float32 against float64). Tight, as for the
-    # precomputed pass: the 2% would let a wrong density or phase through.
+    # precomputed pass: a 2% bound would let a wrong density or phase through.
     assert np.median(err) <= 1e-4
     assert np.percentile(err, 99) <= 1e-3
     np.testing.assert_array_equal(seen[~geometry], raw[~geometry])          # the sky passes through

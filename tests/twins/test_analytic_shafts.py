@@ -103,7 +103,7 @@ def test_analytic_shafts_match_the_twin_in_every_mode(addon_package, tmp_path, m
         scene.ols.jitter_steps = False
     print(technique, "analytic shafts, median relative error per mode:", errors, "p99:", tails)
     # Measured: medians 4e-8 to 1.4e-6, p99 up to 1.4e-4 (float32 closed forms against float64).
-    # The issue's bar is a 2% median; held as tight as the tables' pass (docs/accuracy.md): a
+    # A 2% median would pass for the look; held as tight as the tables' pass (docs/accuracy.md): a
     # loose bound would let a wrong density or transmittance through.
     assert max(errors.values()) <= 1e-4, errors
     assert max(tails.values()) <= 1e-3, tails

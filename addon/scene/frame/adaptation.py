@@ -101,7 +101,7 @@ def read_exr_pixel(path) -> float:
 _private_tempdir = {}
 
 
-def _session_tempdir() -> str:
+def _process_tempdir() -> str:
     """Blender's per-process temporary folder; where Blender has none, a private one of ours
     (never the shared system folder: a link planted there would be followed)."""
     if bpy.app.tempdir:
@@ -112,8 +112,8 @@ def _session_tempdir() -> str:
 
 
 def output_directory(scene) -> str:
-    """Per scene and per session: Blender's temporary folder goes away when Blender exits."""
-    return os.path.join(_session_tempdir(), "ols_adaptation", bpy.path.clean_name(scene.name), "")
+    """Per scene and per Blender process: Blender's temporary folder goes away when Blender exits."""
+    return os.path.join(_process_tempdir(), "ols_adaptation", bpy.path.clean_name(scene.name), "")
 
 
 def ensure_output_node(tree, tone_node):
@@ -206,7 +206,7 @@ def reads_back(scene) -> bool:
 
 
 def begin_render(scene, plan=None):
-    """A render job starts: point our File Output at this session's folder, drop stale files and
+    """A render job starts: point our File Output at this process's folder, drop stale files and
     set the inputs for the first frame an animation renders (a still's render_pre corrects them).
     ``plan``: the job's stored adaptation plan (adaptation_plan.for_render), or None."""
     _, output = _nodes(scene)

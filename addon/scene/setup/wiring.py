@@ -376,7 +376,7 @@ def refresh(scene, force=False):
 
 def _refresh_analytic(scene, sun):
     """refresh under the analytic model: the lamp's colour is the model's sun extinction at the
-    origin (Eq. 5); its groups read no panorama."""
+    origin (Hoffman & Preetham Eq. 5); its groups read no panorama."""
     media = analytic.media(analytic_params(scene.ols))
     _refresh_lamp_and_groups(scene, sun, lambda cos_sun: analytic.sun_transmittance(media, cos_sun))
 

@@ -81,7 +81,7 @@ def restore(key: str) -> Path:
         try:
             _write_bake(directory, key, images, text)
         except OSError:
-            # A read-only or full cache: a folder of this session's own.
+            # A read-only or full cache: a folder of this Blender process's own.
             directory = Path(tempfile.mkdtemp(prefix=f"ols_packed_{key[:8]}_"))
             _write_bake(directory, key, images, text)
     verify_bake(directory, key)
