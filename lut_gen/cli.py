@@ -9,7 +9,8 @@ from pathlib import Path
 
 from .model.air_presets import AIR_PRESETS, FOG_PRESETS, air_preset_changes
 from .model.atmosphere import PRESETS, AtmosphereParams, preset
-from .tables.bake import CONVERGED, RESOLUTIONS, bake
+from .tables.bake import RESOLUTIONS, bake
+from .tables.scattering_orders import CONVERGED
 from .store.cache import cached_bake, default_cache_root, key_for
 from .passes.aerial import MULTIPLE_MODES, SINGLE_MODES
 from .store.atomic import probe_writable

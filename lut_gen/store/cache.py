@@ -6,7 +6,8 @@ from pathlib import Path
 from typing import Optional
 
 from ..model.atmosphere import AtmosphereParams
-from ..tables.bake import Progress, bake, resolve_orders, resolve_resolution
+from ..tables.bake import bake, resolve_orders, resolve_resolution
+from ..tables.bake_parallel import Progress
 from .exr_io import bake_key, is_intact, load, removed_if_left_empty, save
 
 
