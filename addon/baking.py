@@ -42,7 +42,7 @@ def bake_if_needed(params, resolution, progress=None) -> Path:
 
 def is_baked(params, resolution) -> bool:
     directory = bake_directory(params, resolution)
-    return lut_gen.store.exr_io.is_intact(directory, directory.name)
+    return lut_gen.store.exr_read.is_intact(directory, directory.name)
 
 
 def swap_in(scene, directory, preview: bool = False):

@@ -96,8 +96,10 @@ def main():
         sides.insert(0, ("base", name))
         # Both sides read the tables this tree baked (only the frame update is timed): a
         # baseline of another baker version would refuse them.
-        import_module(f"{name}.lut_gen.store.exr_io").BAKER_VERSION = \
-            import_module(f"{pkg.__name__}.lut_gen.store.exr_io").BAKER_VERSION
+        # (A revision before lut_gen/store/exr_io.py was split holds BAKER_VERSION there.)
+        base_store = import_module(f"{name}.lut_gen.store")
+        base_header = getattr(base_store, "exr_header", None) or import_module(f"{name}.lut_gen.store.exr_io")
+        base_header.BAKER_VERSION = import_module(f"{pkg.__name__}.lut_gen.store.exr_header").BAKER_VERSION
     timers = {label: stage_timer(package) for label, package in sides}
     width, height = (int(v) for v in args.size.split("x"))
     output = Path(tempfile.mkdtemp(prefix="ols_bench_")) / "frame.png"

@@ -33,7 +33,7 @@ def main():
     def load_only():
         """The baseline: load_images with the verification taken out (what setup did before)."""
         verify = luts_module.verify_bake
-        luts_module.verify_bake = lambda d, key=None: lut_gen.store.exr_io.read_key(d)
+        luts_module.verify_bake = lambda d, key=None: lut_gen.store.exr_header.read_key(d)
         try:
             for image in luts_module.load_images(directory).values():
                 image.pixels[0]
@@ -43,7 +43,7 @@ def main():
     def verified(cold):
         if cold:
             manifest._hash_cache.clear()
-            lut_gen.store.exr_io._header_key_cache.clear()
+            lut_gen.store.exr_header._header_key_cache.clear()
         images = luts_module.load_images(directory)
         for image in images.values():
             image.pixels[0]

@@ -19,7 +19,9 @@ The package by concern (docs/design.md has the picture):
 from . import model, passes, store, tables
 from .model.atmosphere import PRESETS, AtmosphereParams, preset
 from .store.cache import cached_bake, default_cache_root
-from .store.exr_io import LutError, load, save
+from .store.exr_header import LutError
+from .store.exr_read import load
+from .store.exr_write import save
 from .tables.bake import RESOLUTIONS, bake
 from .tables.lookup import Luts
 

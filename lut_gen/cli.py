@@ -9,11 +9,14 @@ from pathlib import Path
 
 from .model.air_presets import AIR_PRESETS, FOG_PRESETS, air_preset_changes
 from .model.atmosphere import PRESETS, AtmosphereParams, preset
-from .tables.bake import CONVERGED, RESOLUTIONS, bake
+from .tables.bake import RESOLUTIONS, bake
+from .tables.scattering_orders import CONVERGED
 from .store.cache import cached_bake, default_cache_root, key_for
 from .passes.aerial import MULTIPLE_MODES, SINGLE_MODES
 from .store.atomic import probe_writable
-from .store.exr_io import (LutError, check_output_directory, is_intact, load, read_key, removed_if_left_empty, save)
+from .store.exr_header import LutError, read_key
+from .store.exr_read import is_intact, load
+from .store.exr_write import check_output_directory, removed_if_left_empty, save
 
 EXIT_ERROR = 1
 
@@ -218,7 +221,7 @@ def cmd_sample(args) -> int:
 
 
 def cmd_pass(args) -> int:
-    from .store.exr_io import write_rgb
+    from .store.exr_write import write_rgb
     from .passes.scattering_pass import check_passes_match, load_inputs, load_render_passes, scattering_pass
 
     check_writable(args.out)            # before the work, naming the file asked for

@@ -90,7 +90,7 @@ class OriginTransmittance:
         width, height = image.size
         pixels = np.empty(width * height * 4, dtype=np.float32)
         image.pixels.foreach_get(pixels)
-        # Image x = height axis, y = cos zenith axis (see lut_gen.store.exr_io); row 0 at the bottom.
+        # Image x = height axis, y = cos zenith axis (lut_gen.store.exr_write._images); row 0 at the bottom.
         return pixels.reshape(height, width, 4)[:, 0, :].astype(np.float64)
 
     def __call__(self, cos_sun_zenith: float) -> np.ndarray:

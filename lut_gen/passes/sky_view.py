@@ -7,8 +7,8 @@ nodes the radiance changes by factors of 10-100 (the Earth's shadow crosses the 
 path grazes the ground): the look-up was 9-17% off (p99) with the sun from +5 to -6 deg, and
 about 8x the table would be needed to bring that to 5% (docs/accuracy.md). Over one frame the
 camera height and the sun are fixed, so the sky the camera sees is a 2D function of the view:
-integrated on a 2D grid of views (bake.bake_single's integrator, the bake's wavelengths), it
-needs no interpolation across sun zenith, height or coarse sun-view nodes.
+integrated on a 2D grid of views (single_scattering.bake_single's integrator, the bake's
+wavelengths), it needs no interpolation across sun zenith, height or coarse sun-view nodes.
 
 The grid: NODES_VIEW view zeniths split at the camera's horizon like Yusov 2013 eq. (5)
 (parameterization.view_zenith_to_x), and NODES_AZIMUTH azimuths from the sun, evenly spaced
@@ -29,7 +29,8 @@ import numpy as np
 
 from ..model.spectrum import bake_media
 from ..tables import parameterization as par
-from ..tables.bake import bake_single, single_to_rgb, sun_depths
+from ..tables.single_scattering import bake_single, single_to_rgb
+from ..tables.sun_depths import sun_depths
 from ..tables.interpolation import interpolate
 from ..tables.lookup import Luts, with_phases
 
@@ -71,7 +72,7 @@ _kept = {}
 
 
 def _depths(params, optical_depth, media_used):
-    """bake.sun_depths of the last optical-depth table seen (half of a sun move's time
+    """sun_depths.sun_depths of the last optical-depth table seen (half of a sun move's time
     otherwise): kept while it is the same array."""
     kept = _kept.get("depths")
     if kept is None or kept[0] is not optical_depth or kept[1] != (params, media_used):

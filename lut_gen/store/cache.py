@@ -6,8 +6,11 @@ from pathlib import Path
 from typing import Optional
 
 from ..model.atmosphere import AtmosphereParams
-from ..tables.bake import Progress, bake, resolve_orders, resolve_resolution
-from .exr_io import bake_key, is_intact, load, removed_if_left_empty, save
+from ..tables.bake import bake, resolve_orders, resolve_resolution
+from ..tables.bake_parallel import Progress
+from .exr_header import bake_key
+from .exr_read import is_intact, load
+from .exr_write import removed_if_left_empty, save
 
 
 def default_cache_root() -> Path:
@@ -32,7 +35,7 @@ def cache_directory(params: AtmosphereParams, resolution="default", orders=None)
 def bake_into(params: AtmosphereParams, *, resolution="default", orders=None, directory=None,
               progress: Optional[Progress] = None, overwrite: bool = False):
     """(directory, luts): bake and save unless ``directory`` (default: cache_directory) already
-    holds this bake whole and undamaged (exr_io.is_intact: the bake manifest and the files' hashes),
+    holds this bake whole and undamaged (exr_read.is_intact: the bake manifest and the files' hashes),
     in which case luts is None. A damaged, incomplete or mixed copy of this bake is baked again."""
     params = params.validate()
     key = key_for(params, resolution, orders)

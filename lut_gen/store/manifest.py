@@ -28,7 +28,7 @@ _hash_cache: Dict[tuple, str] = {}
 
 
 class ManifestError(Exception):
-    """Why a directory is not an intact bake (exr_io turns it into a LutError)."""
+    """Why a directory is not an intact bake (exr_header and exr_read turn it into a LutError)."""
 
 
 def regular_file_stat(path: Path) -> os.stat_result:

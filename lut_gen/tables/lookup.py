@@ -70,9 +70,10 @@ class Luts:
     higher: np.ndarray
     optical_depth: np.ndarray
     ambient: np.ndarray
-    orders: object = 4          # as asked: a count or bake.CONVERGED
+    orders: object = 4          # as asked: a count or scattering_orders.CONVERGED
     orders_used: Optional[int] = None    # integrated (None: ``orders``)
-    tail: bool = True           # the orders after ``orders`` added as a geometric series (bake.geometric_tail)
+    # the orders after ``orders`` added as a geometric series (scattering_orders.geometric_tail)
+    tail: bool = True
     multiple: Optional[np.ndarray] = None
     timings: dict = field(default_factory=dict)
     single_mie: Optional[np.ndarray] = None

@@ -13,7 +13,7 @@ Measured on the default bake (one process each, 2 cores, 2026-12-04):
   as glibc's dynamic rule sets it) and malloc_trim hands the freed memory back, so Blender does
   not keep the bake's 1.2 GB peak.
 * **OpenBLAS threads.** The bake's row stages already run on a thread per core
-  (bake._parallel_rows); OpenBLAS's own threads inside their matmuls only compete with them,
+  (bake_parallel.parallel_rows); OpenBLAS's own threads inside their matmuls only compete with them,
   so those stages run OpenBLAS on one thread. The big matmuls of the orders' sphere
   integrals, outside them, keep its threads (one thread there made each order 10-40% slower).
 """

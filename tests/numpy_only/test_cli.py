@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from extension import ROOT
-from lut_gen.store.exr_io import BAKER_VERSION
+from lut_gen.store.exr_header import BAKER_VERSION
 
 SMALL = ["--resolution", "8x16x8x4", "--orders", "2"]
 
@@ -140,13 +140,13 @@ def test_sample_preset_bakes_the_samples_media(tmp_path):
 def test_old_layout_directory_is_refused_and_kept(tmp_path):
     """A directory baked by an older version (layout 1) is named as such; nothing is changed."""
     assert run("bake", "--out", str(tmp_path / "l"), *SMALL, "--quiet").returncode == 0
-    from lut_gen.store import exr_io
-    path = tmp_path / "l" / exr_io.FILES["multiple"]
+    from lut_gen.store import exr_header
+    path = tmp_path / "l" / exr_header.FILES["multiple"]
     data = path.read_bytes()
-    marker = f'{exr_io.PREFIX}layout_version'.encode()
+    marker = f'{exr_header.PREFIX}layout_version'.encode()
     start = data.index(marker)
     # The attribute's value follows its name, type and size: rewrite "2" as "1" in place.
-    value_at = data.index(str(exr_io.LAYOUT_VERSION).encode(), start + len(marker) + 12)
+    value_at = data.index(str(exr_header.LAYOUT_VERSION).encode(), start + len(marker) + 12)
     path.write_bytes(data[:value_at] + b"1" + data[value_at + 1:])
     before = {p.name: p.read_bytes() for p in (tmp_path / "l").iterdir()}
     result = run("bake", "--out", str(tmp_path / "l"), *SMALL, "--aerosol-density", "2", "--quiet")
@@ -242,7 +242,7 @@ def test_two_bake_processes_into_one_folder_never_mix(tmp_path):
     assert codes == [0, 1], results
     import lut_gen
     loaded = lut_gen.load(out)
-    winner = lut_gen.store.exr_io.verify_bake(out)
+    winner = lut_gen.store.exr_read.verify_bake(out)
     loser_err = next(err for code, _, err in results if code == 1)
     assert f"holds a different bake ({winner})" in loser_err and loser_err.strip().count("\n") == 0
     winner_density = next(d for (code, _, _), d in zip(results, (1.0, 2.0)) if code == 0)
@@ -282,7 +282,7 @@ def test_a_bake_of_the_previous_layout_is_refused_and_kept(tmp_path):
     """A directory baked by baker 6 (before fog, no fog tables) is refused by bake, sample and
     pass in one line each, and left as it was."""
     env = {"PYTHONPATH": str(ROOT)}
-    script = ("import sys, lut_gen, lut_gen.store.exr_io as e; e.BAKER_VERSION = 6; "
+    script = ("import sys, lut_gen, lut_gen.store.exr_header as e; e.BAKER_VERSION = 6; "
               "lut_gen.save(lut_gen.bake(resolution=(8, 16, 8, 4), orders=2), sys.argv[1])")
     made = subprocess.run([sys.executable, "-c", script, str(tmp_path / "l")], capture_output=True, text=True,
                           env=dict(os.environ, **env), timeout=300)

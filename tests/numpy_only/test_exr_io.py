@@ -10,7 +10,7 @@ import lut_gen
 from lut_gen import LutError
 from lut_gen.tables import atlas
 from lut_gen.store import manifest
-from lut_gen.store.exr_io import FILES
+from lut_gen.store.exr_header import FILES
 
 OpenEXR = pytest.importorskip("OpenEXR")
 
@@ -118,8 +118,8 @@ def test_files_of_different_bakes_are_refused(saved, tmp_path):
         lut_gen.load(saved)
     # The add-on verifies with verify_bake (no OpenEXR in Blender): each file's header key too.
     with pytest.raises(LutError, match="higher_order_scattering.exr comes from another bake.*mixes files"):
-        lut_gen.store.exr_io.verify_bake(saved)
-    assert not lut_gen.store.exr_io.is_intact(saved, json.loads((saved / manifest.MANIFEST).read_text())["bake_key"])
+        lut_gen.store.exr_read.verify_bake(saved)
+    assert not lut_gen.store.exr_read.is_intact(saved, json.loads((saved / manifest.MANIFEST).read_text())["bake_key"])
 
 
 def test_a_hostile_header_is_an_error_not_a_crash(saved):
@@ -130,7 +130,7 @@ def test_a_hostile_header_is_an_error_not_a_crash(saved):
     with pytest.raises(LutError, match="invalid header|not a readable EXR file"):
         lut_gen.load(saved)
     with pytest.raises(LutError, match="invalid header|not a readable EXR file"):
-        lut_gen.store.exr_io.read_header_params(saved)
+        lut_gen.store.exr_header.read_header_params(saved)
 
 
 def test_damaged_pixels_fail_the_content_hash(saved):
@@ -176,8 +176,8 @@ def test_cached_bake_hits_the_second_time(tmp_path):
 def test_builtin_writer_and_header_reader_agree_with_openexr(small_luts, tmp_path, monkeypatch):
     """Inside Blender there is no OpenEXR package: lut_gen writes uncompressed EXRs itself.
     OpenEXR must read them bit-exactly, and the pure header reader must match OpenEXR's."""
-    from lut_gen.store import exr_io, exr_min
-    monkeypatch.setattr(exr_io, "_openexr_or_none", lambda: None)
+    from lut_gen.store import exr_min, exr_write
+    monkeypatch.setattr(exr_write, "_openexr_or_none", lambda: None)
     lut_gen.save(small_luts, tmp_path / "plain")
     monkeypatch.undo()
     loaded = lut_gen.load(tmp_path / "plain")                 # pixels read by OpenEXR
@@ -195,7 +195,7 @@ def test_builtin_writer_and_header_reader_agree_with_openexr(small_luts, tmp_pat
 def _previous_layout(small_luts, directory, monkeypatch):
     """A bake as baker version 6 wrote it (before fog: the six files, no fog tables, its key)."""
     with monkeypatch.context() as patch:
-        patch.setattr(lut_gen.store.exr_io, "BAKER_VERSION", 6)
+        patch.setattr(lut_gen.store.exr_header, "BAKER_VERSION", 6)
         lut_gen.save(small_luts, directory)
     assert not any(directory.glob("*fog*"))
     return {p.name: p.read_bytes() for p in directory.iterdir()}
@@ -205,7 +205,7 @@ def test_a_bake_of_the_previous_layout_is_refused_clearly_and_kept(small_luts, t
     old = tmp_path / "old"
     before = _previous_layout(small_luts, old, monkeypatch)
     with pytest.raises(LutError, match=r"baker version 6 \(the layout before fog: no fog tables\); this version "
-                                       rf"reads baker {lut_gen.store.exr_io.BAKER_VERSION}: re-bake it"):
+                                       rf"reads baker {lut_gen.store.exr_header.BAKER_VERSION}: re-bake it"):
         lut_gen.load(old)
     fog = lut_gen.bake(lut_gen.AtmosphereParams(fog_visibility=1000.0), resolution=(8, 16, 8, 4), orders=2)
     with pytest.raises(LutError, match="baker version 6 .*pass --overwrite to replace them"):

@@ -9,7 +9,8 @@ import pytest
 from lut_gen.model.atmosphere import AtmosphereParams, mie_phase, rayleigh_phase
 from lut_gen.model.profiles import densities
 from lut_gen.passes import aerial
-from lut_gen.tables.bake import RESOLUTIONS, bake_optical_depth
+from lut_gen.tables.bake import RESOLUTIONS
+from lut_gen.tables.optical_depth_bake import bake_optical_depth
 from lut_gen.tables.lookup import Luts
 
 CAMERA = np.array([0.0, 0.0, 2.0])

@@ -30,7 +30,7 @@ import numpy as np
 import pytest
 
 import lut_gen
-from lut_gen.tables.bake import MAX_ORDERS
+from lut_gen.tables.scattering_orders import MAX_ORDERS
 from lut_gen.verify import fog
 from lut_gen.verify.monte_carlo import radiance_by_order
 from mc_compare import deviation, fmt, order_sum, relative_error, relative_se

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import lut_gen
-from lut_gen.store import cache, exr_io, manifest
-from lut_gen.store.exr_io import FILES, LutError
+from lut_gen.store import cache, exr_read, exr_write, manifest
+from lut_gen.store.exr_header import FILES, LutError
 from extension import ROOT
 
 SMALL = dict(resolution=(8, 16, 8, 4), orders=2)
@@ -34,7 +34,7 @@ def snapshot(directory):
 
 
 def test_a_fresh_bake_verifies_and_is_a_hit(baked):
-    key = exr_io.verify_bake(baked)
+    key = exr_read.verify_bake(baked)
     assert json.loads((baked / manifest.MANIFEST).read_text())["bake_key"] == key
     assert bake_into(baked)[1] is None                      # hit: nothing baked
 
@@ -42,7 +42,7 @@ def test_a_fresh_bake_verifies_and_is_a_hit(baked):
 @pytest.mark.parametrize("damage", ["truncate", "flip a bit", "empty", "delete"])
 @pytest.mark.parametrize("table", ["optical_depth", "single_mie", "multiple"])
 def test_a_damaged_file_is_named_and_then_repaired(baked, table, damage):
-    key = exr_io.verify_bake(baked)
+    key = exr_read.verify_bake(baked)
     path = baked / FILES[table]
     data = bytearray(path.read_bytes())
     if damage == "truncate":
@@ -56,7 +56,7 @@ def test_a_damaged_file_is_named_and_then_repaired(baked, table, damage):
         path.unlink()
     with pytest.raises(LutError, match=FILES[table]):
         lut_gen.load(baked)
-    assert not exr_io.is_intact(baked, key)
+    assert not exr_read.is_intact(baked, key)
     # Not a cache hit: the same bake is made again, in place, and then verifies.
     directory, luts = bake_into(baked)
     assert luts is not None and directory == baked
@@ -75,7 +75,7 @@ def test_a_table_copied_from_another_bake_is_refused(tmp_path, baked):
     (good / FILES["single"]).write_bytes(higher)
     (good / FILES["higher"]).write_bytes(single)
     with pytest.raises(LutError, match="damaged or comes from another bake"):
-        exr_io.verify_bake(good)
+        exr_read.verify_bake(good)
 
 
 def test_a_bake_killed_between_renames_is_not_a_bake(baked, monkeypatch):
@@ -91,7 +91,7 @@ def test_a_bake_killed_between_renames_is_not_a_bake(baked, monkeypatch):
     luts = lut_gen.bake(lut_gen.AtmosphereParams(aerosol_density=3.0), **SMALL)
     monkeypatch.setattr(os, "replace", dying_replace)
     with pytest.raises(LutError, match="No space left"):
-        exr_io.save(luts, baked, overwrite=True)
+        exr_write.save(luts, baked, overwrite=True)
     monkeypatch.setattr(os, "replace", real_replace)
     assert not (baked / manifest.MANIFEST).exists()
     with pytest.raises(LutError, match="no bake manifest"):
@@ -105,7 +105,7 @@ def test_a_full_disk_while_writing_keeps_the_old_bake(baked, monkeypatch, capsys
     byte for byte, and still verifies; no temporary file stays."""
     from lut_gen import cli
     before = snapshot(baked)
-    real_write, calls = exr_io._write_rgb, []
+    real_write, calls = exr_write._write_rgb, []
 
     def filling_disk(OpenEXR, path, pixels, strings):
         calls.append(path)
@@ -114,13 +114,13 @@ def test_a_full_disk_while_writing_keeps_the_old_bake(baked, monkeypatch, capsys
             raise RuntimeError(f"Error writing {path}: No space left on device")
         return real_write(OpenEXR, path, pixels, strings)
 
-    monkeypatch.setattr(exr_io, "_write_rgb", filling_disk)
+    monkeypatch.setattr(exr_write, "_write_rgb", filling_disk)
     assert cli.main(["bake", "--out", str(baked), "--resolution", "8x16x8x4", "--orders", "2", "--quiet",
                      "--aerosol-density", "3", "--overwrite"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: ") and "No space left on device" in err[0], err
     assert snapshot(baked) == before
-    exr_io.verify_bake(baked)
+    exr_read.verify_bake(baked)
     assert not list(baked.glob(".*.tmp"))
 
 
@@ -129,9 +129,9 @@ def test_saving_a_bake_over_an_intact_copy_of_itself_rewrites_nothing(baked):
     not rewrite (and so withdraw the manifest of) a folder another worker renders from."""
     stamps = {p.name: p.stat().st_mtime_ns for p in baked.iterdir()}
     luts = lut_gen.bake(lut_gen.AtmosphereParams(), **SMALL)
-    exr_io.save(luts, baked, overwrite=True)
+    exr_write.save(luts, baked, overwrite=True)
     assert {p.name: p.stat().st_mtime_ns for p in baked.iterdir()} == stamps
-    exr_io.verify_bake(baked)
+    exr_read.verify_bake(baked)
 
 
 def test_stale_temporaries_of_a_killed_bake_are_removed(baked):
@@ -140,7 +140,7 @@ def test_stale_temporaries_of_a_killed_bake_are_removed(baked):
     foreign = baked / ".my_notes.tmp"
     foreign.write_bytes(b"mine")
     luts = lut_gen.bake(lut_gen.AtmosphereParams(aerosol_density=3.0), **SMALL)
-    exr_io.save(luts, baked, overwrite=True)
+    exr_write.save(luts, baked, overwrite=True)
     assert not stale.exists() and foreign.read_bytes() == b"mine"
 
 
@@ -151,7 +151,7 @@ def test_a_users_file_named_like_a_table_is_never_replaced(tmp_path):
     mine.write_bytes(b"my own render, not a table")
     for overwrite in (False, True):
         with pytest.raises(LutError, match="was not written by lut_gen"):
-            exr_io.save(lut_gen.bake(**SMALL), out, overwrite=overwrite)
+            exr_write.save(lut_gen.bake(**SMALL), out, overwrite=overwrite)
     assert mine.read_bytes() == b"my own render, not a table"
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [FILES["single"]]
 
@@ -162,7 +162,7 @@ def test_a_failed_bake_leaves_no_directory(tmp_path, monkeypatch):
     def broken(*args, **kwargs):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(exr_io, "_write_tables", broken)
+    monkeypatch.setattr(exr_write, "_write_tables", broken)
     with pytest.raises(OSError):
         cache.bake_into(lut_gen.AtmosphereParams(), directory=out, **SMALL)
     assert not out.exists()
@@ -189,7 +189,7 @@ def test_concurrent_bakes_into_one_directory_never_mix(tmp_path):
     assert list(results.values()).count("ok") == 1
     loser = [v for v in results.values() if v != "ok"]
     assert len(loser) == 1 and "holds a different bake" in loser[0]
-    key = exr_io.verify_bake(out)
+    key = exr_read.verify_bake(out)
     assert loser[0].count(key) == 1                           # the message names the winner
     lut_gen.load(out)
 
@@ -201,7 +201,8 @@ def test_a_fifo_named_like_a_table_does_not_hang(baked):
     path.unlink()
     os.mkfifo(path)
     code = ("import lut_gen, sys\n"
-            "for step in (lambda: lut_gen.load(sys.argv[1]), lambda: lut_gen.store.exr_io.verify_bake(sys.argv[1])):\n"
+            "for step in (lambda: lut_gen.load(sys.argv[1]),\n"
+            "             lambda: lut_gen.store.exr_read.verify_bake(sys.argv[1])):\n"
             "    try:\n        step()\n    except lut_gen.LutError as exc:\n        print('refused:', exc)\n")
     result = subprocess.run([sys.executable, "-c", code, str(baked)], capture_output=True, text=True, timeout=60,
                             cwd=ROOT, env=dict(os.environ, PYTHONPATH=str(ROOT)))
@@ -222,6 +223,6 @@ def test_tables_with_nan_are_refused_on_load(baked, tmp_path):
     luts = lut_gen.load(baked)
     luts.higher[0, 0, 0, 0, 1] = np.nan
     luts.multiple[0, 0, 0, 0, 1] = np.nan
-    exr_io.save(luts, tmp_path / "nan")
+    exr_write.save(luts, tmp_path / "nan")
     with pytest.raises(LutError, match="higher table holds non-finite values"):
         lut_gen.load(tmp_path / "nan")

@@ -9,9 +9,9 @@ own nodes (12 nodes convert within ~0.3 % median of a 5 nm reference).
 Compared on GEOMETRIES (viewer at 2 m, 1 km and 8 km; zenith, horizon, sunward and downward
 views; sun from 60 deg to -4 deg elevation):
 
-* totals: table "multiple" (orders 1-4 and the geometric tail of the rest, bake.geometric_tail)
-  vs the path tracer's atmosphere orders 1-ORDERS (12: order 12 adds under 0.2% anywhere in
-  the draft table);
+* totals: table "multiple" (orders 1-4 and the geometric tail of the rest,
+  scattering_orders.geometric_tail) vs the path tracer's atmosphere orders 1-ORDERS (12: order
+  12 adds under 0.2% anywhere in the draft table);
 * higher orders: table "higher" (orders 2-4 and the tail, ground-reflected light scattered on
   included) vs atmosphere orders 2-ORDERS (both count a ground reflection as an event);
 * ground (views that hit it): ``Luts.ground_radiance`` (T x albedo / pi x (direct sun +

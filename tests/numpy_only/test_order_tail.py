@@ -1,10 +1,10 @@
-"""The scattering orders after the last one baked, as a geometric series (lut_gen.tables.bake.
-geometric_tail): exact for a geometric sequence, and four orders with it land on many orders
+"""The scattering orders after the last one baked, as a geometric series (lut_gen.tables.
+scattering_orders.geometric_tail): exact for a geometric sequence, and four orders with it land on many orders
 without it."""
 import numpy as np
 
 import lut_gen
-from lut_gen.tables.bake import TAIL_MAX_RATIO, geometric_tail
+from lut_gen.tables.scattering_orders import TAIL_MAX_RATIO, geometric_tail
 
 
 def test_the_tail_of_a_geometric_sequence_is_its_remaining_sum():

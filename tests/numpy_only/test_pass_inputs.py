@@ -5,14 +5,14 @@ import OpenEXR
 import pytest
 
 from lut_gen import cli
-from lut_gen.store import exr_io
+from lut_gen.store import exr_header, exr_write
 from lut_gen.passes import scattering_pass
 from occluders import CAMERA, Scene, pillars, sun_at
 
 
 @pytest.fixture(scope="module")
 def luts_dir(draft_luts, tmp_path_factory):
-    return exr_io.save(draft_luts, tmp_path_factory.mktemp("luts") / "draft")
+    return exr_write.save(draft_luts, tmp_path_factory.mktemp("luts") / "draft")
 
 
 def write_passes(path, image, position, depth):
@@ -134,7 +134,7 @@ def test_pass_with_tables_of_a_hostile_header_is_one_error_line(luts_dir, tmp_pa
     from test_exr_io import reseal, rewrite
     hostile = tmp_path / "hostile"
     shutil.copytree(luts_dir, hostile)
-    for name in exr_io.FILES.values():
+    for name in exr_header.FILES.values():
         rewrite(hostile / name, change_header=lambda h: h.update({"ols.params": "[" * 100_000}))
     reseal(hostile)
     scene, inputs = scene_files(tmp_path, 32, 18)

@@ -39,7 +39,7 @@ def build_groups(bake_dir, engine="CYCLES"):
     """Load the bake's images and (re)build the node groups for the render engine; returns
     (images, atmosphere params)."""
     images = luts.load_images(bake_dir)
-    params, dims = lut_gen.store.exr_io.read_header_params(bake_dir)
+    params, dims = lut_gen.store.exr_header.read_header_params(bake_dir)
     lookup = nodes.build_lookup_group(images["multiple"], dims, params, nodes.lookup.filtering_for_engine(engine),
                                       mie_image=images["single_mie"], fog_image=images.get("single_fog"))
     cloud_tree = nodes.build_cloud_group(clouds.ensure_map_image(clouds.seed_of(bpy.context.scene)),
@@ -351,7 +351,7 @@ def _wire_checked(scene, bake_dir, images, params, terrain_objects, sun, resolut
     build_light_shafts(scene, None if images is None else images["optical_depth"], params, images is None)
     compositor.wire_compositor(scene)
     scene[names.WIRED_KEY] = (names.ANALYTIC_WIRED if bake_dir is None
-                              else lut_gen.store.exr_io.verify_bake(bake_dir))     # verified by build_groups: cached
+                              else lut_gen.store.exr_read.verify_bake(bake_dir))     # verified by build_groups: cached
     scene[names.RESOLUTION_KEY] = resolution
     refresh(scene, force=True)
     luts.release_unused_images()
@@ -409,7 +409,7 @@ def use_model(scene, bake_dir=None, shafts: bool = True):
         refresh(scene, force=True)
         return
     images, params = build_groups(bake_dir, scene.render.engine)
-    scene[names.WIRED_KEY] = lut_gen.store.exr_io.verify_bake(bake_dir)
+    scene[names.WIRED_KEY] = lut_gen.store.exr_read.verify_bake(bake_dir)
     _match_model_shafts(scene, images["optical_depth"], params)
     refresh(scene, force=True)
     luts.release_unused_images()

@@ -7,7 +7,8 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ....lut_gen.store.exr_io import ALL_FILES, LutError, bake_files, verify_bake
+from ....lut_gen.store.exr_header import ALL_FILES, LutError
+from ....lut_gen.store.exr_read import bake_files, verify_bake
 from .. import names
 
 

@@ -19,7 +19,8 @@ import bpy
 from .... import lut_gen
 from ....lut_gen.store import manifest
 from ....lut_gen.store.atomic import atomic_path
-from ....lut_gen.store.exr_io import ALL_FILES, FILES, LutError, is_intact, verify_bake
+from ....lut_gen.store.exr_header import ALL_FILES, FILES, LutError
+from ....lut_gen.store.exr_read import is_intact, verify_bake
 from . import luts
 from .. import names
 

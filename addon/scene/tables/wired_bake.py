@@ -41,7 +41,8 @@ class BakeInfo:
         self.optical_depth = optical_depth = bpy.data.images.get(luts.image_name("optical_depth", key))
         if None in (self.multiple, self.single, self.higher, self.single_mie, self.ambient, optical_depth):
             raise FileNotFoundError(f"the images of bake {key} are not loaded; run Set Up Scene")
-        self.params, self.dims = lut_gen.store.exr_io.read_header_params(Path(bpy.path.abspath(self.multiple.filepath)).parent)
+        directory = Path(bpy.path.abspath(self.multiple.filepath)).parent
+        self.params, self.dims = lut_gen.store.exr_header.read_header_params(directory)
         self.single_fog = bpy.data.images.get(luts.image_name("single_fog", key)) if self.params.has_fog else None
         self.fog_depth = luts.fog_depth_image(optical_depth, self.params)
         if self.params.has_fog and self.single_fog is None:
