@@ -23,7 +23,7 @@ HIGHER_UNIFORM_SHARE = 0.2      # J / density falls fastest near the ground: clu
 
 
 class OrderGeometry:
-    """What the view-ray integral of every order (eq. 2) needs that does not change from one
+    """What the view-ray integral of every order (Yusov 2013 eq. (2)) needs that does not change from one
     order to the next, per work item of one grid, found by the first order and kept: the nodes
     along each view ray with their weights (media's scattering coefficients included) and where
     each node falls on the grid's height and view-zenith axes (``item``). Where its sun falls on
@@ -85,7 +85,7 @@ class OrderGeometry:
 
 def integrate_order(params, media: Media, dims_j, j_table, progress: Progress, stage: str,
                      geometry: Optional[OrderGeometry] = None):
-    """L(n) on the order grid from J~ (eq. 2), product-integrated along each view ray.
+    """L(n) on the order grid from J~ (Yusov 2013 eq. (2)), product-integrated along each view ray.
     ``geometry``: the grid's OrderGeometry, kept from order to order (made here if None)."""
     geometry = geometry or OrderGeometry(params, media, dims_j)
     n_h, n_a, n_s, n_t = dims_j
