@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import Optional
 
 from ..model.atmosphere import AtmosphereParams
-from ..tables.bake import bake, resolve_orders, resolve_resolution
+from ..tables.bake import bake_validated, resolve_orders, resolve_resolution
 from ..tables.bake_parallel import Progress
 from .exr_header import bake_key
 from .exr_read import is_intact, load
@@ -22,8 +22,8 @@ def default_cache_root() -> Path:
 
 
 def key_for(params: AtmosphereParams, resolution="default", orders=None) -> str:
+    """The bake key of validated ``params`` (bake_into validates what enters the store)."""
     res = resolve_resolution(resolution)
-    params = params.validate()
     return bake_key(params, res.scattering, res.optical_depth, res.ambient, resolve_orders(params, orders))
 
 
@@ -37,13 +37,13 @@ def bake_into(params: AtmosphereParams, *, resolution="default", orders=None, di
     """(directory, luts): bake and save unless ``directory`` (default: cache_directory) already
     holds this bake whole and undamaged (exr_read.is_intact: the bake manifest and the files' hashes),
     in which case luts is None. A damaged, incomplete or mixed copy of this bake is baked again."""
-    params = params.validate()
+    params = params.validate()          # where parameters enter the store; handed down as they are
     key = key_for(params, resolution, orders)
     directory = Path(directory) if directory else default_cache_root() / key
     if is_intact(directory, key):
         return directory, None
     with removed_if_left_empty(directory):
-        luts = bake(params, resolution=resolution, orders=orders, progress=progress)
+        luts = bake_validated(params, resolution=resolution, orders=orders, progress=progress)
         save(luts, directory, overwrite=overwrite)
     return directory, luts
 

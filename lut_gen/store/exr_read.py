@@ -141,7 +141,7 @@ def load(directory, *, params: Optional[AtmosphereParams] = None) -> Luts:
         raise LutError(f"{directory}: {problem}; re-bake it")
     if luts_key(luts) != keys["multiple"]:
         raise LutError(f"{directory}: header does not match the stored tables; re-bake it")
-    if params is not None and params.validate() != stored:
+    if params is not None and params != stored:
         diff = [k for k, v in params.to_dict().items() if stored.to_dict().get(k) != v]
         raise LutError(f"{directory} was baked with other atmosphere parameters ({', '.join(diff)} differ)")
     return luts

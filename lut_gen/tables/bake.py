@@ -139,7 +139,14 @@ def bake(params: Optional[AtmosphereParams] = None, *, resolution="default", ord
     series (scattering_orders.bake_higher_orders; needs orders >= 3). ``progress(stage, fraction)`` is called as
     stages advance.
     """
-    params = (params or AtmosphereParams()).validate()
+    return bake_validated((params or AtmosphereParams()).validate(), resolution=resolution, orders=orders,
+                          progress=progress, tail=tail)
+
+
+def bake_validated(params: AtmosphereParams, *, resolution="default", orders=None,
+                   progress: Optional[Progress] = None, tail: bool = True) -> Luts:
+    """``bake`` for parameters already validated where they entered (the store, the add-on):
+    they are handed down as they are, not checked again."""
     res = resolve_resolution(resolution)
     orders = resolve_orders(params, orders)
     with tuned_for_bake():
