@@ -34,7 +34,7 @@ def refuse_tables(monkeypatch, tmp_path):
 
     def refuse(*args, **kwargs):
         raise AssertionError("the analytic model touched the tables")
-    monkeypatch.setattr(extension_module("lut_gen.store.cache"), "bake", refuse)
+    monkeypatch.setattr(extension_module("lut_gen.store.cache"), "bake_validated", refuse)
     monkeypatch.setattr(extension_module("addon.scene.tables.luts"), "load_images", refuse)
     monkeypatch.setattr(extension_module("addon.baking"), "bake_if_needed", refuse)
     monkeypatch.setattr(extension_module("lut_gen.store.exr_header"), "read_header_params", refuse)

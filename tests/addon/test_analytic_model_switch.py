@@ -24,7 +24,7 @@ def _small(scene, seed=5):
 def _refuse_baking(monkeypatch):
     def refuse(*args, **kwargs):
         raise AssertionError("re-baked")
-    monkeypatch.setattr(extension_module("lut_gen.store.cache"), "bake", refuse)
+    monkeypatch.setattr(extension_module("lut_gen.store.cache"), "bake_validated", refuse)
 
 
 def test_switching_to_analytic_and_back_renders_the_same_pixels_without_a_re_bake(addon_package, tmp_path,
